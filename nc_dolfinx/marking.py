@@ -1,0 +1,47 @@
+"""Marking: which cells to refine, from the indicators η_K.
+
+Both strategies decide on the global set of indicators, so the marked set does not depend on the number
+of ranks. Indicators are compared with a relative tolerance (``TIE_RTOL``): values equal up to
+parallel round-off are ties, and ties at the threshold are marked together. Without this a symmetric mesh
+(many exactly equal η_K) would be marked differently on different partitions.
+"""
+import numpy as np
+from mpi4py import MPI
+
+TIE_RTOL = 1e-9
+
+
+def doerfler_threshold(eta_squared, theta):
+    """Smallest t such that the cells with η_K² ≥ t carry at least θ Σ η_K² (bulk criterion).
+
+    ``eta_squared`` holds every cell's η_K² (global). The marked set {η_K² ≥ t·(1 − TIE_RTOL)} is the
+    minimal Dörfler set up to ties: no set made of strictly larger indicators satisfies the criterion.
+    """
+    if not 0 < theta <= 1:
+        raise ValueError(f"theta must lie in (0, 1], got {theta}")
+    values = np.sort(np.asarray(eta_squared, dtype=float))[::-1]
+    total = values.sum()
+    if total == 0:
+        return np.inf
+    cumulative = np.cumsum(values)
+    k = int(np.searchsorted(cumulative, theta * total * (1 - 1e-14)))
+    return values[min(k, len(values) - 1)]
+
+
+def mark(eta_squared_owned, comm, theta=0.5, strategy="doerfler"):
+    """Local indices of the owned cells to refine.
+
+    doerfler: a minimal set with Σ_marked η_K² ≥ θ η² (Dörfler's bulk criterion);
+    maximum:  the cells with η_K ≥ θ max η_K.
+    """
+    local = np.asarray(eta_squared_owned, dtype=float)
+    if strategy == "doerfler":
+        everything = np.concatenate(comm.allgather(local))
+        threshold = doerfler_threshold(everything, theta)
+    elif strategy == "maximum":
+        threshold = theta ** 2 * comm.allreduce(float(local.max()) if len(local) else 0.0, MPI.MAX)
+        if threshold == 0:
+            threshold = np.inf
+    else:
+        raise ValueError(f"unknown marking strategy '{strategy}'")
+    return np.flatnonzero(local >= threshold * (1 - TIE_RTOL)).astype(np.int32)

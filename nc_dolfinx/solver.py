@@ -1,0 +1,149 @@
+"""Nonlinear solver for (7): PETSc SNES configured through an options prefix.
+
+Options are layered (later wins): the preset's defaults, the problem file's ``[solver] petsc_options``,
+then ``-snes_*``/``-ksp_*``/``-pc_*`` flags from the command line. All are written into the PETSc
+options database under the prefix ``nc_`` and read by ``setFromOptions``, so any PETSc option works,
+as in dolfiny.
+"""
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from petsc4py import PETSc
+
+import dolfinx
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+
+from .errors import InputError
+
+PREFIX = "nc_"
+
+NEWTON_DEFAULTS = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "bt",
+    "snes_rtol": 1e-10,
+    "snes_atol": 1e-12,
+    "snes_stol": 0.0,
+    "snes_max_it": 50,
+}
+PRESETS = {
+    "direct": {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
+    "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, "pc_type": "gamg",
+                  "pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "mg_levels_ksp_type": "chebyshev",
+                  "mg_levels_pc_type": "jacobi"},
+}
+
+
+def solver_options(preset, problem_options=None, cli_options=None):
+    options = dict(NEWTON_DEFAULTS)
+    options.update(PRESETS[preset])
+    options.update(problem_options or {})
+    options.update(cli_options or {})
+    return options
+
+
+def set_petsc_options(options, prefix=PREFIX):
+    db = PETSc.Options(prefix)
+    for key, value in options.items():
+        key = key.lstrip("-")
+        if value is None or value is True:
+            db[key] = None if value is None else "true"
+        elif value is False:
+            db[key] = "false"
+        else:
+            db[key] = value
+
+
+def rigid_body_modes(V):
+    """Near-nullspace of 2D elasticity: two translations and the infinitesimal rotation."""
+    index_map = V.dofmap.index_map
+    bs = V.dofmap.index_map_bs
+    n_local = index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n_local]
+    vectors = [dolfinx.la.create_petsc_vector(index_map, bs) for _ in range(3)]
+    arrays = [v.array.reshape(-1, bs) for v in vectors]
+    for i in range(3):
+        arrays[i][:] = 0.0
+    arrays[0][:, 0] = 1.0
+    arrays[1][:, 1] = 1.0
+    arrays[2][:, 0] = -x[:, 1]
+    arrays[2][:, 1] = x[:, 0]
+    dolfinx.la.orthonormalize(vectors)
+    return PETSc.NullSpace().create(vectors=vectors, comm=V.mesh.comm)
+
+
+@dataclass
+class SolveStats:
+    newton_iterations: int = 0
+    linear_iterations: int = 0
+    converged_reason: str = ""
+    time: float = 0.0
+
+
+REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+
+
+class NonlinearSolver:
+    """SNES for F(u) = 0 with Jacobian J; assembles with DOLFINx and applies the Dirichlet BCs."""
+
+    def __init__(self, forms, u, bcs, options):
+        self.u, self.bcs = u, bcs
+        self.F = fem.form(forms.residual)
+        self.J = fem.form(forms.jacobian)
+        self.b = fem_petsc.create_vector(self.F)
+        self.A = fem_petsc.create_matrix(self.J)
+        self.A.setNearNullSpace(rigid_body_modes(u.function_space))
+        set_petsc_options(options)
+        self.snes = PETSc.SNES().create(u.function_space.mesh.comm)
+        self.snes.setOptionsPrefix(PREFIX)
+        self.snes.setFunction(self._residual, self.b)
+        self.snes.setJacobian(self._jacobian, self.A)
+        self.snes.setFromOptions()
+        self.snes.getKSP().setFromOptions()
+
+    def _update(self, x):
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        x.copy(self.u.vector)
+        self.u.vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+
+    def _residual(self, snes, x, b):
+        self._update(x)
+        with b.localForm() as b_local:
+            b_local.set(0.0)
+        fem_petsc.assemble_vector(b, self.F)
+        fem_petsc.apply_lifting(b, [self.J], bcs=[self.bcs], x0=[x], scale=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fem_petsc.set_bc(b, self.bcs, x, -1.0)
+
+    def _jacobian(self, snes, x, A, P):
+        A.zeroEntries()
+        fem_petsc.assemble_matrix(A, self.J, bcs=self.bcs)
+        A.assemble()
+
+    def solve(self, load_factor=None, load_steps=1):
+        """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""
+        stats, start = SolveStats(), time.perf_counter()
+        x = self.u.vector.copy()
+        for step in range(1, load_steps + 1):
+            if load_factor is not None:
+                load_factor.value = step / load_steps
+            fem_petsc.set_bc(x, self.bcs)  # homogeneous Dirichlet data: the guess must satisfy it
+            self.snes.solve(None, x)
+            reason = self.snes.getConvergedReason()
+            stats.newton_iterations += self.snes.getIterationNumber()
+            stats.linear_iterations += self.snes.getLinearSolveIterations()
+            stats.converged_reason = REASONS.get(reason, str(reason))
+            if reason <= 0:
+                raise InputError(f"SNES diverged ({stats.converged_reason}) after "
+                                 f"{self.snes.getIterationNumber()} Newton iterations"
+                                 + (f" in load step {step}/{load_steps}" if load_steps > 1 else "")
+                                 + "; try --load-steps, -snes_linesearch_type or a smaller c_n")
+        self._update(x)
+        x.destroy()
+        stats.time = time.perf_counter() - start
+        return stats
+
+    def destroy(self):
+        for obj in (self.snes, self.A, self.b):
+            obj.destroy()
