@@ -6,9 +6,17 @@ inside a local (owned or ghost) parent cell. Regions and the displacement are th
 displacement at each child vertex (exact, since the new vertices are edge midpoints and P1 is linear along
 edges — this is nested iteration's initial guess). Boundary groups are re-derived geometrically from the
 level-0 segments (see :mod:`nc_dolfinx.meshes`).
+
+DOLFINx 0.5's refinement builds the new ghost layer with a partitioner that sends a cell once per
+off-rank *neighbour*: a cell with two facet-neighbours on the same rank arrives there twice, and the facet
+between the duplicate ghosts and their neighbour then has three cells and drops out of interior-facet
+(``dS``) integrals (seen on 3 ranks: one interior edge missing from the jump terms of η_2). We therefore
+re-create the refined mesh with :func:`_rebuild_with_unique_ghosts`, which keeps every cell on its rank and
+ghosts it once on each neighbouring rank.
 """
 import numpy as np
 
+import dolfinx
 from dolfinx import fem, geometry, mesh as dmesh
 
 from .meshes import Domain, region_function, tag_exterior_facets
@@ -23,6 +31,8 @@ def refine(domain, cells=None):
         msh.topology.create_entities(1)
         edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), 2, 1)
         child = dmesh.refine(msh, edges, redistribute=False)
+    if msh.comm.size > 1:
+        child = _rebuild_with_unique_ghosts(child)
     n_owned = child.topology.index_map(2).size_local
     midpoints = dmesh.compute_midpoints(child, 2, np.arange(n_owned, dtype=np.int32))
     regions = np.rint(evaluate(domain.region, midpoints)[:, 0])
@@ -54,3 +64,30 @@ def transfer(function, space):
     out.x.array[:n_owned * bs] = evaluate(function, points).reshape(-1)
     out.x.scatter_forward()
     return out
+
+
+def _rebuild_with_unique_ghosts(msh):
+    """The same distributed mesh (owned cells stay on their rank), with a duplicate-free ghost layer."""
+    comm = msh.comm
+    node_map = msh.geometry.index_map()
+    n_cells = msh.topology.index_map(2).size_local
+    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]
+    cells = node_map.local_to_global(nodes.ravel()).reshape(-1, 3)
+    x = msh.geometry.x[:node_map.size_local, :2]
+
+    def keep_local_partitioner(comm_, nparts, tdim, cell_topology, ghost_mode):
+        graph = dolfinx.cpp.mesh.build_dual_graph(comm_, cell_topology, tdim)
+        counts = np.array(comm.allgather(graph.num_nodes))
+        starts = np.concatenate([[0], np.cumsum(counts)])
+        rank = comm.rank
+        cell = np.repeat(np.arange(graph.num_nodes), np.diff(graph.offsets))
+        owner = np.searchsorted(starts, graph.array, side="right") - 1
+        pairs = np.unique(np.stack([cell, owner], 1)[owner != rank], axis=0)
+        ghosts = np.split(pairs[:, 1], np.searchsorted(pairs[:, 0], np.arange(1, graph.num_nodes)))
+        destinations = [np.concatenate([[rank], g]) for g in ghosts]
+        offsets = np.concatenate([[0], np.cumsum([len(d) for d in destinations])]).astype(np.int32)
+        array = np.concatenate(destinations).astype(np.int32) if destinations else np.zeros(0, np.int32)
+        return dolfinx.cpp.graph.AdjacencyList_int32(array, offsets)
+
+    return dmesh.create_mesh(comm, cells, x, msh.ufl_domain(), dmesh.GhostMode.shared_facet,
+                             keep_local_partitioner)

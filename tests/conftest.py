@@ -1,0 +1,48 @@
+"""Shared test helpers: run the CLI or a script serially or under mpirun, read results."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PYTHON = "/usr/bin/python3"
+sys.path.insert(0, str(ROOT))
+
+
+def mpirun_prefix(nprocs):
+    if nprocs == 1:
+        return []
+    cmd = ["mpirun", "-n", str(nprocs)]
+    if os.geteuid() == 0:
+        cmd.insert(1, "--allow-run-as-root")
+    if nprocs > 2:
+        cmd.insert(1, "--oversubscribe")
+    return cmd
+
+
+def run(args, nprocs=1, cwd=None, timeout=900):
+    """Run ``python3 ARGS`` (a script and its arguments) on ``nprocs`` ranks; returns CompletedProcess."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
+    return subprocess.run(mpirun_prefix(nprocs) + [PYTHON, *map(str, args)], cwd=cwd or ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def run_cli(args, nprocs=1, cwd=None):
+    """Run ``run_cases.py ARGS --quiet``."""
+    return run([ROOT / "run_cases.py", *args], nprocs, cwd)
+
+
+def summary(out_dir):
+    return json.loads((Path(out_dir) / "summary.json").read_text())
+
+
+def history(out_dir):
+    return json.loads((Path(out_dir) / "history.json").read_text())
+
+
+@pytest.fixture
+def cli():
+    return run_cli

@@ -1,0 +1,69 @@
+"""Refinement keeps the geometry of boundary groups and material regions, on 1, 2 and 3 ranks."""
+import json
+
+import pytest
+
+from conftest import ROOT, run
+
+
+@pytest.fixture(scope="module")
+def two_region_mesh(tmp_path_factory):
+    """[0,2]x[0,1] split at x = 1 into regions 'soft' and 'hard'; groups left/bottom/top, right untagged."""
+    import gmsh
+    path = tmp_path_factory.mktemp("mesh") / "two_regions.msh"
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    occ = gmsh.model.occ
+    r1, r2 = occ.addRectangle(0, 0, 0, 1, 1), occ.addRectangle(1, 0, 0, 1, 1)
+    occ.fragment([(2, r1)], [(2, r2)])
+    occ.synchronize()
+    model = gmsh.model
+    def curves(pred):
+        return [c for _, c in model.getEntities(1) if pred(*occ.getCenterOfMass(1, c)[:2])]
+    for name, pred in (("left", lambda x, y: abs(x) < 1e-9), ("bottom", lambda x, y: abs(y) < 1e-9),
+                       ("top", lambda x, y: abs(y - 1) < 1e-9)):
+        model.setPhysicalName(1, model.addPhysicalGroup(1, curves(pred)), name)
+    for name, pred in (("soft", lambda x, y: x < 1), ("hard", lambda x, y: x > 1)):
+        surf = [s for _, s in model.getEntities(2) if pred(*occ.getCenterOfMass(2, s)[:2])]
+        model.setPhysicalName(2, model.addPhysicalGroup(2, surf), name)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.25)
+    model.mesh.generate(2)
+    gmsh.write(str(path))
+    gmsh.finalize()
+    return path
+
+
+@pytest.fixture(scope="module")
+def levels(two_region_mesh):
+    out = {}
+    for nprocs in (1, 2, 3):
+        proc = run([ROOT / "tests" / "mpi" / "refine_check.py", two_region_mesh], nprocs)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        out[nprocs] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return out
+
+
+@pytest.mark.parametrize("nprocs", [1, 2, 3])
+def test_groups_and_regions_keep_their_measure(levels, nprocs):
+    expected = {"group:left": 1.0, "group:bottom": 2.0, "group:top": 2.0, "untagged": 1.0,
+                "region:soft": 1.0, "region:hard": 1.0}
+    rows = levels[nprocs]
+    assert rows[-1]["cells"] > 2 * rows[0]["cells"]  # the refinement did happen
+    for row in rows:
+        for key, value in expected.items():
+            assert row[key] == pytest.approx(value, rel=1e-12), key
+        assert row["facets_off_their_group"] == 0
+
+
+@pytest.mark.parametrize("nprocs", [2, 3])
+def test_parallel_refinement_is_the_serial_one(levels, nprocs):
+    """Same cells, and every interior edge integrated once (DOLFINx 0.5 dropped some on 3 ranks)."""
+    for serial, parallel in zip(levels[1], levels[nprocs]):
+        assert parallel["cells"] == serial["cells"]
+        assert parallel["interior_edges"] == pytest.approx(serial["interior_edges"], rel=1e-12)
+
+
+@pytest.mark.parametrize("nprocs", [1, 3])
+def test_solution_transfer_is_exact_for_linear_fields(levels, nprocs):
+    for row in levels[nprocs][1:]:
+        assert row["transfer_error"] < 1e-12
