@@ -5,6 +5,7 @@ Any argument starting with ``-`` that is not one of ours is a PETSc option (``-s
 problem file. Bad input ends the run with one line ``nc_dolfinx: error: …`` and exit status 1.
 """
 import argparse
+import dataclasses
 import logging
 import sys
 import time
@@ -16,8 +17,13 @@ from .errors import InputError
 EXIT_INPUT, EXIT_INTERNAL = 1, 3
 
 
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # a bad option value is bad input: one line, exit status 1 (not usage + 2)
+        raise InputError(f"{message} (see --help)")
+
+
 def parser():
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="run_cases.py",
         description="Normal compliance contact (Fernández & Hild) with a residual estimator and "
                     "adaptive refinement. Unknown -options are passed to PETSc (SNES/KSP/PC).",
@@ -36,6 +42,9 @@ def parser():
     p.add_argument("--preset", choices=("direct", "iterative"), default=None,
                    help="linear solver preset: MUMPS LU or CG + GAMG with rigid-body near-nullspace")
     p.add_argument("--load-steps", type=int, default=None, help="increments of the loads on level 0")
+    p.add_argument("--compare-uniform", action="store_true",
+                   help="with --refine adaptive: also run uniform refinement (same level and dof limits) and "
+                        "plot both in convergence.png (history_uniform.csv)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a problem-file entry, e.g. --set contact.m_n=2 (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -68,8 +77,12 @@ def _is_number(text):
 
 def main(argv=None):
     comm = MPI.COMM_WORLD
-    args, rest = parser().parse_known_args(argv)
     say = (lambda text: print(text, flush=True)) if comm.rank == 0 else (lambda text: None)
+    try:
+        args, rest = parser().parse_known_args(argv)
+    except InputError as err:
+        say(f"nc_dolfinx: error: {err}")
+        return EXIT_INPUT
     try:
         _quiet_jit_logging()
         if args.list:
@@ -144,8 +157,20 @@ def run_case(case, args, cli_options, comm, say):
         writer.write_json("summary.json", summary)
         writer.write_json("history.json", history)
         writer.write_csv("history.csv", history)
+        histories = {settings.refine: history}
+        if args.compare_uniform and settings.refine == "adaptive":
+            # stop uniform refinement once it has as many dofs as the adaptive run's last level
+            uniform = dataclasses.replace(settings, refine="uniform",
+                                          max_dofs=min(settings.max_dofs or history[-1]["dofs"],
+                                                       history[-1]["dofs"]))
+            if not args.quiet:
+                say("  uniform refinement for comparison:")
+            _, histories["uniform"] = adaptive.run(problem, comm, uniform, cli_options,
+                                                   progress=None if args.quiet else say)
+            writer.write_json("history_uniform.json", histories["uniform"])
+            writer.write_csv("history_uniform.csv", histories["uniform"])
         if comm.rank == 0:
-            output.convergence_plot(writer.path_local("convergence.png"), {settings.refine: history},
+            output.convergence_plot(writer.path_local("convergence.png"), histories,
                                     problem.title.split(":")[0])
         writer.commit()
     except BaseException:
