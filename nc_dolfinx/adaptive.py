@@ -75,9 +75,10 @@ def solve_level(problem, domain, options, initial=None, load_steps=1):
     V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
     u = refinement.transfer(initial, V) if initial is not None else fem.Function(V)
     u.name = "displacement"
-    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields), options)
+    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields), options,
+                             problem.preconditioner_matrix)
     try:
-        stats = solver.solve(fields.load_factor, load_steps)
+        stats = solver.solve(load_steps)
     finally:
         solver.destroy()
     return fields, u, stats

@@ -87,7 +87,7 @@ def estimate(u, fields, contact_degree=CONTACT_DEGREE, cell_degree=CELL_DEGREE):
     h = ufl.CellDiameter(msh)
     n = ufl.FacetNormal(msh)
     s = sigma(u, fields.lmbda, fields.mu)
-    f = fields.load_factor * fields.f
+    f = fields.f
     dx = ufl.dx(metadata={"quadrature_degree": cell_degree})
     dS = ufl.dS
 
@@ -144,7 +144,7 @@ def _neumann_edge_terms(fields, s, n, Q, degree):
     for i in range(3):
         form = 0
         for k, group in enumerate(groups):
-            g = fields.load_factor * fields.g.get(group, zero)
+            g = fields.g.get(group, zero)
             r = s * n - g
             form += (r[0] * wv[0] + r[1] * wv[1] + g[0] * wv[2] + g[1] * wv[3] + ufl.inner(g, g) * wv[4]
                      + wv[5]) * ds(1 + 3 * k + i)

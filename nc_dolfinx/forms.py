@@ -33,29 +33,27 @@ def contact_measure(fields, degree=CONTACT_QUADRATURE_DEGREE):
     return fields.ds_of("contact")(metadata={"quadrature_degree": degree})
 
 
-def external_work(v, fields):
-    """L(v) scaled by the load factor (load stepping)."""
-    L = ufl.inner(fields.f, v) * ufl.dx
-    for group_id, g in fields.g.items():
-        L += ufl.inner(g, v) * fields.ds(group_id)
-    return fields.load_factor * L
-
-
 @dataclass
 class NonlinearForms:
-    residual: ufl.Form
-    jacobian: ufl.Form
+    """The pieces of (7). The bulk form a is bilinear and constant, so the solver assembles it once and
+    per Newton step only the Γ_C terms: F(u) = K u + j_n(u, ·) − λ L, J(u) = K + j_n'(u)."""
+    a: ufl.Form            # a(du, v): the constant bulk stiffness
+    L: ufl.Form            # L(v) at load factor 1
+    j_n: ufl.Form          # j_n(u, v)
+    j_n_jacobian: ufl.Form  # the Gateaux derivative of j_n(u, v) in u
 
 
 def normal_compliance_forms(u, fields):
-    """Residual F(u; v) = a(u, v) + j_n(u, v) − L(v) and its Jacobian."""
+    """The forms of (7) on the space of ``u``: a, L, j_n and its Jacobian."""
     V = u.function_space
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
     n = ufl.FacetNormal(fields.domain.mesh)
-    a = ufl.inner(sigma(u, fields.lmbda, fields.mu), ufl.sym(ufl.grad(v))) * ufl.dx
+    a = ufl.inner(sigma(du, fields.lmbda, fields.mu), ufl.sym(ufl.grad(v))) * ufl.dx
     j_n = contact_pressure(u, fields, n) * normal_displacement(v, n) * contact_measure(fields)
-    F = a + j_n - external_work(v, fields)
-    return NonlinearForms(F, ufl.derivative(F, u, du))
+    L = ufl.inner(fields.f, v) * ufl.dx
+    for group_id, g in fields.g.items():
+        L += ufl.inner(g, v) * fields.ds(group_id)
+    return NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du))
 
 
 def elastic_energy(u, fields):

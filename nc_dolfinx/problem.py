@@ -45,6 +45,7 @@ class Problem:
     exact_u: list = None
     petsc_options: dict = field(default_factory=dict)
     preset: str = "direct"
+    preconditioner_matrix: str = "bulk"
     load_steps: int = 1
     adapt: dict = field(default_factory=dict)
     estimator: dict = field(default_factory=dict)
@@ -178,7 +179,14 @@ def problem_from_data(data, name, source=None):
     p.preset = solver.get("preset", "direct")
     if p.preset not in ("direct", "iterative"):
         raise InputError(f"solver.preset must be 'direct' or 'iterative', got '{p.preset}'")
-    p.load_steps = int(solver.get("load_steps", 1))
+    p.preconditioner_matrix = solver.get("preconditioner_matrix", "bulk")
+    if p.preconditioner_matrix not in ("bulk", "jacobian"):
+        raise InputError("solver.preconditioner_matrix must be 'bulk' or 'jacobian', "
+                         f"got '{p.preconditioner_matrix}'")
+    try:
+        p.load_steps = int(solver.get("load_steps", 1))
+    except (TypeError, ValueError):
+        raise InputError(f"solver.load_steps must be an integer, got {solver.get('load_steps')!r}") from None
     if p.load_steps < 1:
         raise InputError(f"solver.load_steps must be >= 1, got {p.load_steps}")
     p.adapt, p.estimator = _table(data, "adapt"), _table(data, "estimator")
@@ -232,7 +240,6 @@ class Fields:
     m_n: float
     gap: object
     u_exact: object
-    load_factor: fem.Constant
     ids: dict  # role -> tuple of group ids
     ds: object
 
@@ -281,6 +288,7 @@ def bind(problem, domain):
     for role, symbol in (("dirichlet", "Γ_D"), ("contact", "Γ_C")):
         if sum(counts.get(i, 0) for i in ids[role]) == 0:
             raise InputError(f"{symbol} ({role}) is empty: no boundary facet in groups {getattr(problem, role)}")
+    listed_neumann = ids["neumann"]  # a traction given for all of Γ_N applies to these only
     ids["neumann"] = ids["neumann"] + ((meshes.UNTAGGED,) if counts.get(meshes.UNTAGGED, 0) else ())
     # Groups of the mesh in no role are traction-free Neumann boundary, like untagged facets.
     in_roles = set(sum(ids.values(), ()))
@@ -293,7 +301,6 @@ def bind(problem, domain):
     else:
         lmbda, mu = (fem.Constant(msh, PETSc.ScalarType(v)) for v in problem.lame)
 
-    load_factor = fem.Constant(msh, PETSc.ScalarType(1.0))
     u_exact = to_ufl_vector(problem.exact_u, msh, params, "exact.u") if problem.exact_u else None
     id_of_name = {name: i for name, i in domain.facet_groups.items()}
     if problem.loads_from_exact:
@@ -305,13 +312,13 @@ def bind(problem, domain):
         g = {}
         for group, vec in problem.g.items():
             value = to_ufl_vector(vec, msh, params, f"loads.g[{group}]")
-            targets = [i for i in ids["neumann"] if i != meshes.UNTAGGED] if group == "*" \
+            targets = listed_neumann if group == "*" \
                 else [id_of_name.get(group, group)]
             for i in targets:
                 g[i] = value
     ds = ufl.Measure("ds", domain=msh, subdomain_data=domain.facet_tags)
     fields = Fields(domain, lmbda, mu, f, g, to_ufl(problem.c_n, msh, params), problem.m_n,
-                    to_ufl(problem.gap, msh, params), u_exact, load_factor, ids, ds)
+                    to_ufl(problem.gap, msh, params), u_exact, ids, ds)
     _check_nonnegative_on_contact(fields, "c_n", fields.c_n)
     _check_nonnegative_on_contact(fields, "gap", fields.gap)
     return fields
