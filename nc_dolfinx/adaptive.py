@@ -41,15 +41,21 @@ class AdaptSettings:
 
     def validated(self):
         from .errors import InputError
+        for name, kind in (("levels", int), ("theta", float), ("max_dofs", int), ("tol", float), ("rtol", float)):
+            value = getattr(self, name)
+            if value is not None:
+                try:
+                    setattr(self, name, kind(value))
+                except (TypeError, ValueError):
+                    raise InputError(f"adapt.{name} must be a number, got {value!r}") from None
         if self.refine not in ("none", "uniform", "adaptive"):
             raise InputError(f"refine must be none, uniform or adaptive, got '{self.refine}'")
         if self.marking not in ("doerfler", "maximum"):
             raise InputError(f"marking must be doerfler or maximum, got '{self.marking}'")
         if not 0 < self.theta <= 1:
             raise InputError(f"theta must lie in (0, 1], got {self.theta}")
-        if int(self.levels) < 1:
+        if self.levels < 1:
             raise InputError(f"levels must be >= 1, got {self.levels}")
-        self.levels = int(self.levels)
         return self
 
 

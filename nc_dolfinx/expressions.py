@@ -70,23 +70,28 @@ def to_float(text, parameters=None):
     """Evaluate an expression with no coordinates (parameters, material constants) to a float."""
     names = {"pi": math.pi, **(parameters or {})}
     try:
-        return float(_walk(_parse(text), names, _FLOAT_FUNCTIONS, text))
+        value = _walk(_parse(text), names, _FLOAT_FUNCTIONS, text)
+        if isinstance(value, complex):
+            raise ValueError("the value is complex")
+        return float(value)
     except (ValueError, ZeroDivisionError, OverflowError, TypeError) as err:
         raise InputError(f"cannot evaluate expression '{text}': {err}") from None
 
 
 def to_ufl(text, mesh, parameters=None):
     """UFL expression of x, y (``ufl.SpatialCoordinate(mesh)``) for a problem-file string."""
+    tree = _parse(text)
+    if not {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)} & {"x", "y"}:
+        # No coordinates: evaluate to a number (with the float checks) and keep it attached to the mesh,
+        # as dolfinx Expressions need a domain.
+        from dolfinx import fem
+        return fem.Constant(mesh, to_float(text, parameters))
     x = ufl.SpatialCoordinate(mesh)
     names = {"x": x[0], "y": x[1], "pi": math.pi, **(parameters or {})}
     try:
-        value = _walk(_parse(text), names, _UFL_FUNCTIONS, text)
-    except (ufl.UFLException, TypeError) as err:
-        raise InputError(f"malformed expression '{text}': {err}") from None
-    if isinstance(value, float):  # a constant: keep it attached to the mesh (dolfinx Expressions need one)
-        from dolfinx import fem
-        return fem.Constant(mesh, value)
-    return value
+        return _walk(tree, names, _UFL_FUNCTIONS, text)
+    except (ufl.UFLException, TypeError, ValueError, ZeroDivisionError, OverflowError) as err:
+        raise InputError(f"cannot evaluate expression '{text}': {err}") from None
 
 
 def to_ufl_vector(texts, mesh, parameters=None, what="vector"):

@@ -103,10 +103,13 @@ def region_function(msh, values_of_owned_cells):
 
 def rectangle(comm, corners, cells, diagonal="right"):
     """Rectangle whose sides are the groups left/right/bottom/top, one region 'body' (id 1)."""
-    (x0, y0), (x1, y1) = corners
+    try:
+        (x0, y0), (x1, y1) = ((float(x), float(y)) for x, y in corners)
+    except (TypeError, ValueError):
+        x0 = y0 = x1 = y1 = 0.0
     if not (x1 > x0 and y1 > y0):
         raise InputError(f"mesh.rectangle must be [[x0, y0], [x1, y1]] with x1 > x0, y1 > y0, got {corners}")
-    if len(cells) != 2 or min(cells) < 1:
+    if not (isinstance(cells, list) and len(cells) == 2 and all(isinstance(c, int) and c >= 1 for c in cells)):
         raise InputError(f"mesh.cells must be two positive integers, got {cells}")
     msh = dmesh.create_rectangle(comm, [np.array([x0, y0]), np.array([x1, y1])], [int(c) for c in cells],
                                  dmesh.CellType.triangle, dmesh.GhostMode.shared_facet,
@@ -132,13 +135,17 @@ def _read_gmsh_model(path):
     names = {dim: {} for dim in (1, 2)}
     for dim, tag in model.getPhysicalGroups():
         if dim in names:
-            names[dim][model.getPhysicalName(dim, tag) or str(tag)] = tag
+            name = model.getPhysicalName(dim, tag) or str(tag)
+            if name in names[dim]:
+                raise InputError(f"mesh file '{path}': two physical groups of dimension {dim} are named '{name}'")
+            names[dim][name] = tag
     if not names[2]:
         raise InputError(f"mesh file '{path}' has no physical group on its cells")
+    cell_edges = _check_elements(model, path)
     node_tags, node_x, _ = model.mesh.getNodes()
     xy = np.zeros((int(node_tags.max()) + 1 if len(node_tags) else 0, 2))
     xy[node_tags.astype(int)] = np.asarray(node_x).reshape(-1, 3)[:, :2]
-    seen, a, b, ids = {}, [], [], []
+    seen, a, b, ids, keys = {}, [], [], [], []
     for name, tag in names[1].items():
         for curve in model.getEntitiesForPhysicalGroup(1, tag):
             if curve in seen:
@@ -150,12 +157,53 @@ def _read_gmsh_model(path):
                 if model.mesh.getElementProperties(etype)[3] != 2:
                     raise InputError(f"mesh file '{path}': only linear (P1) elements are supported")
                 pairs = np.asarray(enodes, dtype=int).reshape(-1, 2)
+                edge_keys = _edge_keys(pairs)
+                if not np.all(np.isin(edge_keys, cell_edges)):
+                    raise InputError(f"mesh file '{path}': curve {curve} of group '{name}' has elements that are "
+                                     "not edges of the cells (a duplicate or detached curve?)")
+                keys.append(edge_keys)
                 a.append(xy[pairs[:, 0]])
                 b.append(xy[pairs[:, 1]])
                 ids.append(np.full(len(pairs), tag, dtype=np.int32))
     segments = (np.concatenate(a) if a else np.zeros((0, 2)), np.concatenate(b) if b else np.zeros((0, 2)),
                 np.concatenate(ids) if ids else np.zeros(0, dtype=np.int32))
+    if keys:  # the same facet (node pair) in two groups, e.g. through duplicate curves
+        order = np.argsort(np.concatenate(keys), kind="stable")
+        k, g = np.concatenate(keys)[order], segments[2][order]
+        clash = np.flatnonzero((k[1:] == k[:-1]) & (g[1:] != g[:-1]))
+        if len(clash):
+            name_of = {tag: name for name, tag in names[1].items()}
+            raise InputError(f"mesh file '{path}': a boundary facet is in two groups, "
+                             f"'{name_of[g[clash[0]]]}' and '{name_of[g[clash[0] + 1]]}'")
     return names[1], names[2], segments
+
+
+def _edge_keys(pairs):
+    """One int64 per edge (unordered node pair)."""
+    pairs = np.sort(np.asarray(pairs, dtype=np.int64), axis=1)
+    return pairs[:, 0] * (1 << 31) + pairs[:, 1]
+
+
+def _check_elements(model, path):
+    """Check what dolfinx's gmshio would assert on or crash over (on rank 0, while the other ranks wait):
+    one element type per entity of every physical group, and some cells. Returns the keys of the cell edges."""
+    what = {0: "point", 1: "curve", 2: "surface"}
+    edges = []
+    for dim, tag in sorted(model.getPhysicalGroups(), key=lambda group: -group[0]):  # cells first
+        name = model.getPhysicalName(dim, tag) or str(tag)
+        for entity in model.getEntitiesForPhysicalGroup(dim, tag):
+            types, _, nodes = model.mesh.getElements(dim, entity)
+            if len(types) != 1:
+                raise InputError(f"mesh file '{path}': group '{name}' has "
+                                 f"{'no mesh elements' if len(types) == 0 else 'mixed element types'} on "
+                                 f"{what.get(dim, 'entity')} {entity} (is the mesh generated and conforming?)")
+            if dim == 2:
+                _, _, _, num_nodes, _, corners = model.mesh.getElementProperties(types[0])
+                cells = np.asarray(nodes[0], dtype=np.int64).reshape(-1, num_nodes)[:, :corners]
+                edges.append(_edge_keys(np.stack([cells, np.roll(cells, -1, axis=1)], -1).reshape(-1, 2)))
+    if not edges or sum(len(e) for e in edges) == 0:
+        raise InputError(f"mesh file '{path}' has no cells")
+    return np.unique(np.concatenate(edges))
 
 
 def from_gmsh(comm, path):

@@ -1,0 +1,302 @@
+"""Bad input through the real command line: one error line, a non-zero exit, no traceback, no results.
+
+The project standard: every bad input (unknown case, missing files, bad groups, bad material or contact
+parameters, malformed expressions or TOML, unusable gmsh meshes, a diverging SNES, bad options) ends the
+run with exactly ONE line ``nc_dolfinx: error: …`` that names the problem, exit status 1 (mpirun passes
+it on), no ``Traceback``, and nothing under ``--out``: no summary.json, no .xdmf/.h5, no ``.partial-*``
+staging directory. A representative handful is repeated on 2 ranks, where the line must appear once (not
+once per rank) and a rank must not be left waiting for another that failed (a hang fails the test).
+
+The gmsh meshes are written once per module by a small gmsh script in a temporary directory.
+"""
+import os
+import signal
+import subprocess
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from conftest import PYTHON, ROOT, mpirun_prefix
+
+TIMEOUT = 120  # seconds; a hang fails instead of blocking the suite
+ERROR = "nc_dolfinx: error:"
+FAST = ["--refine", "none", "--set", "mesh.cells=[4,2]", "--quiet"]  # block on 8 cells, one solve
+INJECTION = "__import__('os').system('touch PWNED')"
+
+
+def cli(args, nprocs=1, cwd=None, timeout=TIMEOUT):
+    """``run_cases.py ARGS`` like conftest.run_cli, but in its own process group so that a hang (a rank
+    waiting for one that failed) is killed with all its ranks and reported as a failure."""
+    cmd = mpirun_prefix(nprocs) + [PYTHON, str(ROOT / "run_cases.py"), *map(str, args)]
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
+    proc = subprocess.Popen(cmd, cwd=cwd or ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"no exit within {timeout} s (hang?): {' '.join(cmd)}\n{out}\n{err}")
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
+def assert_bad_input(result, expected, out, nprocs=1, allowed=()):
+    """One error line containing ``expected``, a non-zero exit, no traceback, no results under ``out``."""
+    text = result.stdout + result.stderr
+    where = f"\n--- command: {' '.join(result.args)}\n--- output:\n{text}"
+    errors = [line for line in text.splitlines() if line.startswith(ERROR)]
+    assert result.returncode != 0, "bad input exited with status 0" + where
+    if nprocs == 1:
+        assert result.returncode == 1, f"exit status {result.returncode}, expected 1" + where
+    assert len(errors) == 1, f"{len(errors)} lines start with {ERROR!r}, expected 1" + where
+    assert expected in errors[0], f"error line does not name the problem ({expected!r})" + where
+    assert "Traceback" not in text, "traceback in the output" + where
+    assert "internal error" not in text, "an internal error instead of an input error" + where
+    left = sorted(str(p.relative_to(out)) for p in Path(out).rglob("*")) if Path(out).exists() else []
+    left = [p for p in left if p not in allowed]
+    assert not left, f"the failed run left {left} in {out}" + where
+
+
+# --- gmsh meshes ------------------------------------------------------------------------------------
+
+GMSH_SCRIPT = textwrap.dedent('''
+    """Unit-square meshes with groups clamp (left), base (bottom), body (cells), and broken variants."""
+    import sys
+    import gmsh
+
+    def square(path, kind):
+        gmsh.initialize()
+        gmsh.option.setNumber("General.Terminal", 0)
+        geo = gmsh.model.geo
+        p = [geo.addPoint(x, y, 0, 0.5) for x, y in [(0, 0), (1, 0), (1, 1), (0, 1)]]
+        lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]  # bottom, right, top, left
+        surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        bottom, left = lines[0], lines[3]
+        if kind.startswith("interior"):  # a curve inside the body, meshed into it: no exterior facet
+            inner = geo.addLine(geo.addPoint(0.25, 0.5, 0, 0.5), geo.addPoint(0.75, 0.5, 0, 0.5))
+        if kind.startswith("duplicate"):  # a second curve on top of the bottom side
+            twin = geo.addLine(p[0], p[1])
+        geo.synchronize()
+        if kind.startswith("interior"):
+            gmsh.model.mesh.embed(1, [inner], 2, surface)
+
+        def group(dim, tags, name):
+            gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, tags), name)
+
+        group(2, [surface], "body")
+        group(1, [inner if kind == "interior_clamp" else left], "clamp")
+        group(1, [inner if kind == "interior_base" else bottom], "base")
+        if kind == "same_curve_twice":
+            group(1, [bottom], "support")
+        if kind.startswith("duplicate"):
+            group(1, [twin], "support")
+        if kind != "empty":  # "empty": the geometry and its groups, but no mesh
+            gmsh.model.mesh.generate(2)
+        if kind == "duplicate_merged":  # the twin's facets now are the bottom facets: same nodes
+            gmsh.model.mesh.removeDuplicateNodes()
+        gmsh.write(path)
+        gmsh.finalize()
+
+    def box(path):
+        gmsh.initialize()
+        gmsh.option.setNumber("General.Terminal", 0)
+        volume = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [volume]), "body")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        gmsh.model.mesh.generate(3)
+        gmsh.write(path)
+        gmsh.finalize()
+
+    out = sys.argv[1]
+    for kind in ("good", "interior_clamp", "interior_base", "same_curve_twice", "duplicate",
+                 "duplicate_merged", "empty"):
+        square(f"{out}/{kind}.msh", kind)
+    box(f"{out}/box.msh")
+''')
+
+
+@pytest.fixture(scope="module")
+def msh(tmp_path_factory):
+    """Directory holding the .msh files of GMSH_SCRIPT (and a file that is not a mesh)."""
+    folder = tmp_path_factory.mktemp("meshes")
+    script = folder / "make_meshes.py"
+    script.write_text(GMSH_SCRIPT)
+    done = subprocess.run([PYTHON, str(script), str(folder)], capture_output=True, text=True, timeout=TIMEOUT)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (folder / "garbage.msh").write_text("this is not a gmsh file\n")
+    return folder
+
+
+def gmsh_problem(folder, mesh, dirichlet="clamp", contact="base"):
+    """A problem file next to the meshes (the mesh path is relative to it)."""
+    path = folder / f"problem_{mesh}_{dirichlet}_{contact}.toml"
+    path.write_text(textwrap.dedent(f"""\
+        title = "bad input test on {mesh}.msh"
+        [mesh]
+        file = "{mesh}.msh"
+        dirichlet = ["{dirichlet}"]
+        contact = ["{contact}"]
+        [material]
+        E = 100.0
+        nu = 0.3
+        [loads]
+        f = ["0", "-1"]
+        [contact]
+        c_n = 100.0
+        """))
+    return path
+
+
+def block_with(tmp_path, extra):
+    """The block case's problem file with some text appended."""
+    path = tmp_path / "block_edited.toml"
+    path.write_text((ROOT / "nc_dolfinx/cases/block.toml").read_text() + extra)
+    return path
+
+
+# --- the bad inputs: (id, arguments (a function of the mesh folder and tmp_path), expected text) ----------
+
+CASES = [
+    # problem and mesh files
+    ("unknown_case", lambda m, t: ["no_such_case"], "unknown case 'no_such_case'"),
+    ("missing_problem_file", lambda m, t: [t / "missing.toml"], "not found"),
+    ("missing_mesh_file", lambda m, t: [gmsh_problem(m, "missing")], "missing.msh' not found"),
+    ("malformed_toml", lambda m, t: [block_with(t, "\n[contact\nm_n = 2\n")], "malformed TOML"),
+    ("unknown_section", lambda m, t: [block_with(t, "\n[contacts]\nm_n = 2\n")], "unknown section(s) ['contacts']"),
+    ("unknown_section_set", lambda m, t: ["block", *FAST, "--set", "solverr.x=1"], "['solverr']"),
+    ("not_a_mesh_file", lambda m, t: [gmsh_problem(m, "garbage")], "cannot read mesh file"),
+    # boundary groups
+    ("unknown_group_rectangle", lambda m, t: ["block", *FAST, "--set", 'mesh.dirichlet=["nosuch"]'],
+     "dirichlet group 'nosuch' is not in the mesh"),
+    ("unknown_group_gmsh", lambda m, t: [gmsh_problem(m, "good", contact="nosuch")],
+     "contact group 'nosuch' is not in the mesh"),
+    ("unknown_group_tag", lambda m, t: ["block", *FAST, "--set", "mesh.contact=[7]"],
+     "contact group 7 is not a boundary tag"),
+    ("empty_gamma_d_gmsh", lambda m, t: [gmsh_problem(m, "interior_clamp")], "Γ_D (dirichlet) is empty"),
+    ("empty_gamma_d_rectangle", lambda m, t: ["block", *FAST, "--set", "mesh.dirichlet=[]"],
+     "Γ_D (dirichlet) is empty"),
+    ("empty_gamma_c_gmsh", lambda m, t: [gmsh_problem(m, "interior_base")], "Γ_C (contact) is empty"),
+    ("empty_gamma_c_rectangle", lambda m, t: ["block", *FAST, "--set", "mesh.contact=[]"],
+     "Γ_C (contact) is empty"),
+    ("group_in_two_roles", lambda m, t: ["block", *FAST, "--set", 'mesh.neumann=["top", "bottom"]'],
+     "'bottom' is in both neumann and contact"),
+    # gmsh meshes
+    ("mesh_3d", lambda m, t: [gmsh_problem(m, "box")], "is 3D"),
+    ("curve_in_two_groups", lambda m, t: [gmsh_problem(m, "same_curve_twice")], "is in two groups"),
+    ("facet_in_two_groups", lambda m, t: [gmsh_problem(m, "duplicate_merged")],
+     "a boundary facet is in two groups, 'base' and 'support'"),
+    ("duplicate_detached_curve", lambda m, t: [gmsh_problem(m, "duplicate")], "not edges of the cells"),
+    ("empty_mesh", lambda m, t: [gmsh_problem(m, "empty")], "no mesh elements"),
+    ("rectangle_cells_not_a_list", lambda m, t: ["block", *FAST, "--set", "mesh.cells=3"],
+     "mesh.cells must be two positive integers"),
+    ("rectangle_corners_malformed", lambda m, t: ["block", *FAST, "--set", "mesh.rectangle=5"],
+     "mesh.rectangle must be"),
+    # contact law
+    ("m_n_below_1", lambda m, t: ["block", *FAST, "--set", "contact.m_n=0.5"], "contact.m_n must be >= 1"),
+    ("c_n_negative", lambda m, t: ["block", *FAST, "--set", "contact.c_n=-1"], "contact.c_n must be >= 0"),
+    ("c_n_negative_on_gamma_c", lambda m, t: ["block", *FAST, "--set", 'contact.c_n="x - 1"'],
+     "contact.c_n must be >= 0 on Γ_C"),
+    ("gap_negative", lambda m, t: ["block", *FAST, "--set", "contact.gap=-0.1"], "contact.gap must be >= 0"),
+    ("gap_negative_on_gamma_c", lambda m, t: ["block", *FAST, "--set", 'contact.gap="x - 1"'],
+     "contact.gap must be >= 0 on Γ_C"),
+    # material
+    ("nu_one_half", lambda m, t: ["block", *FAST, "--set", "material.nu=0.5"], "nu must lie in (-1, 0.5)"),
+    ("nu_above_one_half", lambda m, t: ["block", *FAST, "--set", "material.nu=0.7"], "nu must lie in"),
+    ("E_zero", lambda m, t: ["block", *FAST, "--set", "material.E=0"], "E must be > 0"),
+    ("E_negative", lambda m, t: ["block", *FAST, "--set", "material.E=-5"], "E must be > 0"),
+    # expressions
+    ("malformed_expression", lambda m, t: ["block", *FAST, "--set", 'contact.c_n="x +* 2"'],
+     "malformed expression 'x +* 2'"),
+    ("malformed_expression_load", lambda m, t: ["block", *FAST, "--set", 'loads.f=["0", "x +* 2"]'],
+     "malformed expression 'x +* 2'"),
+    ("unknown_name_expression", lambda m, t: ["block", *FAST, "--set", 'contact.c_n="z + 1"'],
+     "unknown name 'z'"),
+    ("python_in_expression", lambda m, t: ["block", *FAST, "--set", f'contact.c_n="{INJECTION}"'],
+     "is not allowed"),
+    ("python_in_constant", lambda m, t: ["block", *FAST, "--set", f'material.E="{INJECTION}"'],
+     "is not allowed"),
+    # solver
+    ("snes_divergence", lambda m, t: ["block", *FAST, "-snes_max_it", "1"], "SNES diverged"),
+    ("snes_divergence_basic_linesearch",
+     lambda m, t: ["block", *FAST, "-snes_max_it", "1", "-snes_linesearch_type", "basic"], "SNES diverged"),
+    ("load_steps_not_integer", lambda m, t: ["block", *FAST, "--set", 'solver.load_steps="x"'],
+     "solver.load_steps must be an integer"),
+    # command line
+    ("set_without_equals", lambda m, t: ["block", *FAST, "--set", "contact.m_n"], "--set expects KEY=VALUE"),
+    ("set_without_key", lambda m, t: ["block", *FAST, "--set", "=2"], "--set expects KEY=VALUE"),
+    ("set_into_a_value", lambda m, t: ["block", *FAST, "--set", "mesh.rectangle.x=1"],
+     "'rectangle' is not a table"),
+    ("unknown_cli_argument", lambda m, t: ["block", *FAST, "--no-such-option"],
+     "unexpected argument '--no-such-option'"),
+    ("bad_option_value", lambda m, t: ["block", *FAST, "--levels", "many"], "argument --levels"),
+    ("bad_option_choice", lambda m, t: ["block", "--refine", "sideways"], "argument --refine"),
+    ("bad_load_steps_option", lambda m, t: ["block", *FAST, "--load-steps", "0"], "--load-steps must be >= 1"),
+]
+
+
+@pytest.mark.parametrize("make_args, expected", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_input(msh, tmp_path, make_args, expected):
+    out = tmp_path / "out"
+    result = cli([*make_args(msh, tmp_path), "--out", out], cwd=tmp_path)
+    assert_bad_input(result, expected, out)
+    assert not (tmp_path / "PWNED").exists() and not (ROOT / "PWNED").exists(), "an expression ran Python"
+
+
+# Representative cases on 2 ranks: one error line (not one per rank), non-zero exit, no results, no hang.
+MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_3d", "empty_mesh",
+             "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value"]
+
+
+@pytest.mark.parametrize("name", MPI_CASES)
+def test_bad_input_two_ranks(msh, tmp_path, name):
+    _, make_args, expected = next(c for c in CASES if c[0] == name)
+    out = tmp_path / "out"
+    result = cli([*make_args(msh, tmp_path), "--out", out], nprocs=2, cwd=tmp_path)
+    assert_bad_input(result, expected, out, nprocs=2)
+
+
+def test_failed_run_keeps_existing_directory_clean(tmp_path):
+    """SNES divergence into an existing --out: its files stay, nothing is added, no staging left."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("not ours\n")
+    result = cli(["block", "--refine", "uniform", "--levels", "2", "--set", "mesh.cells=[4,2]", "--quiet",
+                  "-snes_max_it", "1", "--out", out], cwd=tmp_path)
+    assert_bad_input(result, "SNES diverged", out, allowed=("keep.txt",))
+    assert (out / "keep.txt").read_text() == "not ours\n"
+
+
+# The positive controls: the same templates without the fault do run (so the failures above are the faults).
+
+def test_control_block_runs(tmp_path):
+    out = tmp_path / "out"
+    result = cli(["block", *FAST, "--out", out], cwd=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert (out / "summary.json").is_file() and not list(out.glob(".partial-*"))
+
+
+def test_control_gmsh_problem_runs(msh, tmp_path):
+    out = tmp_path / "out"
+    result = cli([gmsh_problem(msh, "good"), "--refine", "none", "--quiet", "--out", out], cwd=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert (out / "summary.json").is_file() and not list(out.glob(".partial-*"))
+
+
+# Arithmetic errors in problem-file expressions and non-numeric [adapt] values.
+EVALUATION = [
+    ("division_by_zero_expression", ["--set", 'contact.c_n="1/0"'], "1/0"),
+    ("complex_expression", ["--set", 'contact.c_n="sqrt(-1)"'], "sqrt(-1)"),
+    ("log_of_zero_expression", ["--set", 'loads.f=["0", "log(0)"]'], "log(0)"),
+    ("overflow_expression", ["--set", 'contact.c_n="10.0**1000"'], "10.0**1000"),
+    ("division_by_zero_with_x", ["--set", 'contact.c_n="x + 1/0"'], "1/0"),
+    ("adapt_levels_not_integer", ["--set", 'adapt.levels="x"', "--refine", "uniform"], "levels"),
+]
+
+
+@pytest.mark.parametrize("extra, expected", [k[1:] for k in EVALUATION], ids=[k[0] for k in EVALUATION])
+def test_bad_expression_values(tmp_path, extra, expected):
+    out = tmp_path / "out"
+    result = cli(["block", *FAST, *extra, "--out", out], cwd=tmp_path)
+    assert_bad_input(result, expected, out)
