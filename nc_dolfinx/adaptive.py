@@ -75,14 +75,14 @@ def dirichlet_bcs(V, fields):
     return [fem.dirichletbc(np.zeros(2, dtype=np.float64), dofs, V)]
 
 
-def solve_level(problem, domain, options, initial=None, load_steps=1):
+def solve_level(problem, domain, options, initial=None, load_steps=1, preconditioner_matrix=None):
     """SOLVE on one mesh: returns (fields, u, solver stats)."""
     fields = bind(problem, domain)
     V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
     u = refinement.transfer(initial, V) if initial is not None else fem.Function(V)
     u.name = "displacement"
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields), options,
-                             problem.preconditioner_matrix)
+                             preconditioner_matrix or problem.preconditioner_matrix)
     try:
         stats = solver.solve(load_steps)
     finally:
@@ -97,11 +97,13 @@ def run(problem, comm, settings, cli_options=None, on_level=None, progress=None)
     domain = build_domain(problem, comm)
     mesh_time = time.perf_counter() - t0
     history, previous, eta0 = [], None, None
+    pc_matrix = problem.preconditioner_matrix  # "auto" turns into "jacobian" for good once it switches
     for number in range(settings.levels):
         times = {"mesh": mesh_time} if number == 0 else {"refine": refine_time}
         t = time.perf_counter()
         fields, u, stats = solve_level(problem, domain, options, previous,
-                                       problem.load_steps if number == 0 else 1)
+                                       problem.load_steps if number == 0 else 1, pc_matrix)
+        pc_matrix = stats.preconditioner_matrix
         times["solve"] = time.perf_counter() - t
         t = time.perf_counter()
         est = estimator.estimate(u, fields, **_estimator_options(problem))
@@ -110,7 +112,7 @@ def run(problem, comm, settings, cli_options=None, on_level=None, progress=None)
         dofs = 2 * domain.num_vertices()
         row = {"level": number, "dofs": dofs, "cells": domain.num_cells(), **est.totals,
                "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
-               "converged_reason": stats.converged_reason}
+               "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix}
         row.update(quantities.solution_quantities(u, fields))
         row.update(quantities.errors(u, fields))
         if "h1_error" in row:

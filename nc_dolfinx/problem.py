@@ -45,7 +45,7 @@ class Problem:
     exact_u: list = None
     petsc_options: dict = field(default_factory=dict)
     preset: str = "direct"
-    preconditioner_matrix: str = "bulk"
+    preconditioner_matrix: str = "auto"
     load_steps: int = 1
     adapt: dict = field(default_factory=dict)
     estimator: dict = field(default_factory=dict)
@@ -179,9 +179,9 @@ def problem_from_data(data, name, source=None):
     p.preset = solver.get("preset", "direct")
     if p.preset not in ("direct", "iterative"):
         raise InputError(f"solver.preset must be 'direct' or 'iterative', got '{p.preset}'")
-    p.preconditioner_matrix = solver.get("preconditioner_matrix", "bulk")
-    if p.preconditioner_matrix not in ("bulk", "jacobian"):
-        raise InputError("solver.preconditioner_matrix must be 'bulk' or 'jacobian', "
+    p.preconditioner_matrix = solver.get("preconditioner_matrix", "auto")
+    if p.preconditioner_matrix not in ("auto", "bulk", "jacobian"):
+        raise InputError("solver.preconditioner_matrix must be 'auto', 'bulk' or 'jacobian', "
                          f"got '{p.preconditioner_matrix}'")
     try:
         p.load_steps = int(solver.get("load_steps", 1))

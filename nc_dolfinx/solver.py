@@ -37,7 +37,7 @@ PRESETS = {
                   "pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "mg_levels_ksp_type": "chebyshev",
                   "mg_levels_pc_type": "jacobi"},
 }
-PRECONDITIONER_MATRICES = ("bulk", "jacobian")
+PRECONDITIONER_MATRICES = ("auto", "bulk", "jacobian")
 
 
 def solver_options(preset, problem_options=None, cli_options=None):
@@ -84,6 +84,7 @@ class SolveStats:
     linear_iterations: int = 0
     converged_reason: str = ""
     time: float = 0.0
+    preconditioner_matrix: str = ""  # the mode at the end ("auto" may have switched to "jacobian")
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
@@ -98,9 +99,13 @@ class NonlinearSolver:
     iterate stay zero, so K's zeroed Dirichlet columns lose nothing.
     """
 
-    def __init__(self, forms, u, bcs, options, preconditioner_matrix="bulk"):
-        """``preconditioner_matrix``: build the PC from K ("bulk": once per mesh) or from J ("jacobian":
-        every Newton step, more robust for a very stiff foundation, much more expensive)."""
+    def __init__(self, forms, u, bcs, options, preconditioner_matrix="auto"):
+        """``preconditioner_matrix`` is the matrix the PC is built from:
+        "bulk": K, set up once per mesh — cheap while the foundation is soft compared with the body;
+        "jacobian": J, set up at every Newton step — robust for a stiff foundation (penalty);
+        "auto": K, switching to J for the rest of the solve once a Newton system needs more than
+        ``2 n_0 + 10`` Krylov iterations (n_0: those of the first system, whose J is K or close to it).
+        """
         self.u, self.bcs = u, bcs
         a, L = fem.form(forms.a), fem.form(forms.L)
         self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(forms.j_n_jacobian)
@@ -113,12 +118,19 @@ class NonlinearSolver:
         self.contact = fem_petsc.create_vector(self.j_n)
         self.b = fem_petsc.create_vector(self.j_n)
         self.A = self.K.duplicate(copy=True)  # K's sparsity contains Γ_C's
-        self.A.setNearNullSpace(rigid_body_modes(u.function_space))
+        self.P = self.K.duplicate(copy=True)  # stays equal to K (unchanged state: PC kept) until switched
+        near_nullspace = rigid_body_modes(u.function_space)
+        for matrix in (self.A, self.P):
+            matrix.setNearNullSpace(near_nullspace)
+        if preconditioner_matrix not in PRECONDITIONER_MATRICES:
+            raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
+        self.mode = preconditioner_matrix
+        self.first_krylov_iterations = None
         set_petsc_options(options)
         self.snes = PETSc.SNES().create(u.function_space.mesh.comm)
         self.snes.setOptionsPrefix(PREFIX)
         self.snes.setFunction(self._residual, self.b)
-        self.snes.setJacobian(self._jacobian, self.A, self.K if preconditioner_matrix == "bulk" else self.A)
+        self.snes.setJacobian(self._jacobian, self.A, self.P)
         self.snes.setFromOptions()
         self.snes.getKSP().setFromOptions()
 
@@ -139,10 +151,18 @@ class NonlinearSolver:
         b.axpy(-self.load_factor, self.load)
 
     def _jacobian(self, snes, x, A, P):
-        # K is never modified, so when P is K PETSc sees an unchanged matrix and keeps the PC.
         self.K.copy(A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         fem_petsc.assemble_matrix(A, self.j_n_jacobian, bcs=self.bcs)
         A.assemble()
+        if self.mode == "auto" and snes.getIterationNumber() > 0:
+            its = snes.getKSP().getIterationNumber()
+            if self.first_krylov_iterations is None:
+                self.first_krylov_iterations = its
+            elif its > 2 * self.first_krylov_iterations + 10:
+                self.mode = "jacobian"
+        if self.mode == "jacobian":
+            # While P is left untouched PETSc sees an unchanged matrix and keeps the PC built from K.
+            A.copy(P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
 
     def solve(self, load_steps=1):
         """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""
@@ -164,8 +184,9 @@ class NonlinearSolver:
         self._update(x)
         x.destroy()
         stats.time = time.perf_counter() - start
+        stats.preconditioner_matrix = self.mode
         return stats
 
     def destroy(self):
-        for obj in (self.snes, self.A, self.K, self.b, self.contact, self.load):
+        for obj in (self.snes, self.A, self.P, self.K, self.b, self.contact, self.load):
             obj.destroy()
