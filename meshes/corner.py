@@ -15,6 +15,7 @@ Run: ``/usr/bin/python3 meshes/corner.py`` (from any directory).
 from pathlib import Path
 
 import gmsh
+from gmsh_common import generate_and_write, name_groups
 
 H = 0.25
 OUT = Path(__file__).resolve().with_suffix(".msh")
@@ -34,20 +35,10 @@ def main():
         geo.synchronize()
         groups = {"bottom": [lines[0]], "free": [lines[1], lines[2], lines[3]], "top": [lines[4]],
                   "left": [lines[5]]}
-        for tag, (name, curves) in enumerate(groups.items(), start=1):
-            gmsh.model.addPhysicalGroup(1, curves, tag)
-            gmsh.model.setPhysicalName(1, tag, name)
-        gmsh.model.addPhysicalGroup(2, [surface], 1)
-        gmsh.model.setPhysicalName(2, 1, "body")
+        name_groups(groups, surface)
         gmsh.option.setNumber("Mesh.CharacteristicLengthMin", H)
         gmsh.option.setNumber("Mesh.CharacteristicLengthMax", H)
-        gmsh.option.setNumber("Mesh.ElementOrder", 1)
-        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
-        gmsh.model.mesh.generate(2)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.write(str(OUT))
-        print(f"wrote {OUT}: {len(gmsh.model.mesh.getElementsByType(2)[0])} triangles")
+        generate_and_write(OUT)
     finally:
         gmsh.finalize()
 

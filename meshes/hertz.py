@@ -26,6 +26,7 @@ import math
 from pathlib import Path
 
 import gmsh
+from gmsh_common import generate_and_write, name_groups
 
 R = 1.0
 X_C = 0.5 * R            # the contact group is the arc with |x| <= X_C
@@ -57,11 +58,7 @@ def main():
         geo.synchronize()
 
         groups = {"top": [top], "contact": [contact_left, contact_right], "free": [free_left, free_right]}
-        for tag, (name, curves) in enumerate(groups.items(), start=1):
-            gmsh.model.addPhysicalGroup(1, curves, tag)
-            gmsh.model.setPhysicalName(1, tag, name)
-        gmsh.model.addPhysicalGroup(2, [surface], 1)
-        gmsh.model.setPhysicalName(2, 1, "body")
+        name_groups(groups, surface)
 
         field = gmsh.model.mesh.field
         near_origin = field.add("Distance")
@@ -87,13 +84,7 @@ def main():
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        gmsh.option.setNumber("Mesh.ElementOrder", 1)
-        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
-        gmsh.model.mesh.generate(2)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.write(str(OUT))
-        print(f"wrote {OUT}: {len(gmsh.model.mesh.getElementsByType(2)[0])} triangles")
+        generate_and_write(OUT)
     finally:
         gmsh.finalize()
 
