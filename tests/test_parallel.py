@@ -37,3 +37,18 @@ def test_parallel_matches_serial(runs, nprocs):
             if key in s:
                 assert p[key] == pytest.approx(s[key], rel=1e-8, abs=1e-14), (key, s["level"])
         assert p["contact_force"] == pytest.approx(s["contact_force"], rel=1e-8, abs=1e-12)
+
+
+@pytest.mark.parametrize("case,strategy,theta", [("block", "doerfler", 0.5), ("manufactured", "doerfler", 0.3),
+                                                 ("corner", "maximum", 0.5)])
+def test_marked_sets_are_identical_on_1_2_3_ranks(case, strategy, theta):
+    import json
+    from conftest import ROOT, run
+    script, toml = ROOT / "tests" / "mpi" / "marked_cells.py", ROOT / "nc_dolfinx" / "cases" / f"{case}.toml"
+    sets = []
+    for nprocs in (1, 2, 3):
+        proc = run([script, toml, strategy, theta], nprocs)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        sets.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    assert len(sets[0]) > 0
+    assert sets[1] == sets[0] and sets[2] == sets[0]

@@ -1,0 +1,25 @@
+"""Solve a case on one mesh, estimate, mark; print the midpoints of the marked cells (rank 0, JSON).
+
+Usage: marked_cells.py CASE.toml STRATEGY THETA [OVERRIDE ...]
+"""
+import json
+import sys
+
+import numpy as np
+from mpi4py import MPI
+
+from dolfinx import mesh as dmesh
+
+from nc_dolfinx import adaptive, estimator, marking, problem as problem_module
+from nc_dolfinx.solver import solver_options
+
+comm = MPI.COMM_WORLD
+problem = problem_module.load_problem(sys.argv[1], sys.argv[4:])
+domain = problem_module.build_domain(problem, comm)
+fields, u, _ = adaptive.solve_level(problem, domain, solver_options(problem.preset))
+marked = marking.mark(estimator.estimate(u, fields).squares, comm, float(sys.argv[3]), sys.argv[2])
+midpoints = dmesh.compute_midpoints(domain.mesh, 2, marked)[:, :2]
+everything = comm.gather(midpoints, root=0)
+if comm.rank == 0:
+    points = np.concatenate(everything).round(10)
+    print(json.dumps(sorted(map(tuple, points.tolist()))))
