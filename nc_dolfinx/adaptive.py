@@ -95,11 +95,10 @@ def run(problem, comm, settings, cli_options=None, on_level=None, progress=None)
     options = solver_options(problem.preset, problem.petsc_options, cli_options)
     t0 = time.perf_counter()
     domain = build_domain(problem, comm)
-    mesh_time = time.perf_counter() - t0
+    times = {"mesh": time.perf_counter() - t0}  # then, on later levels, the refinement that made the mesh
     history, previous, eta0 = [], None, None
     pc_matrix = problem.preconditioner_matrix  # "auto" turns into "jacobian" for good once it switches
     for number in range(settings.levels):
-        times = {"mesh": mesh_time} if number == 0 else {"refine": refine_time}
         t = time.perf_counter()
         fields, u, stats = solve_level(problem, domain, options, previous,
                                        problem.load_steps if number == 0 else 1, pc_matrix)
@@ -141,7 +140,7 @@ def run(problem, comm, settings, cli_options=None, on_level=None, progress=None)
             break
         t = time.perf_counter()
         domain = refinement.refine(domain, marked)  # marked is None for uniform refinement
-        refine_time = time.perf_counter() - t
+        times = {"refine": time.perf_counter() - t}
         previous = u
     return level, history
 

@@ -7,7 +7,6 @@ problem file. Bad input ends the run with one line ``nc_dolfinx: error: …`` an
 import argparse
 import dataclasses
 import logging
-import sys
 import time
 
 from mpi4py import MPI

@@ -8,7 +8,6 @@ as in dolfiny.
 import time
 from dataclasses import dataclass
 
-import numpy as np
 from petsc4py import PETSc
 
 import dolfinx
