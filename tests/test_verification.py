@@ -1,0 +1,29 @@
+"""The verification studies (verification/verify.py --quick): every expectation of issue 4 holds.
+
+Runs the quick mode as CI does (the studies on 2 MPI ranks, the parallel study on 1, 2 and 3) into a
+temporary directory, and checks its exit status, that every study reported, and the quick report.
+"""
+import os
+import subprocess
+
+from conftest import PYTHON, ROOT
+
+STUDIES = ["1. Manufactured solution", "2. Closed-form check", "3. Penalty → Signorini", "4. Hertz line contact",
+           "5. Adaptive against uniform", "6. Local efficiency", "7. Parallel invariance"]
+
+
+def test_quick_verification_passes(tmp_path):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    proc = subprocess.run([PYTHON, str(ROOT / "verification" / "verify.py"), "--quick", "--out", str(tmp_path)],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 0, output[-6000:]
+    summary = output[output.index("=== summary"):]
+    for study in STUDIES:
+        assert study in summary, f"{study} missing from the summary:\n{summary}"
+    assert "FAIL" not in summary, summary
+    assert "; PASS (quick mode" in summary
+    report = (tmp_path / "report.md").read_text()
+    assert "quick-mode" in report and "**Overall: PASS**" in report
+    for picture in ("manufactured_rates.png", "corner_meshes.png", "penalty.png", "hertz.png"):
+        assert (tmp_path / picture).is_file()

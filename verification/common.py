@@ -1,0 +1,57 @@
+"""Helpers shared by the verification studies (run under MPI by worker.py, or serially by verify.py)."""
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+HERE = Path(__file__).resolve().parent
+PYTHON = "/usr/bin/python3"
+CASES = ROOT / "nc_dolfinx" / "cases"
+
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+
+def fitted_slope(x, y):
+    """Least-squares slope of log y against log x."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = (x > 0) & (y > 0)
+    if ok.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+
+
+def spread(values):
+    """max/min − 1 of positive values (relative variation)."""
+    values = np.asarray(values, float)
+    return float(values.max() / values.min() - 1.0)
+
+
+def mpirun_prefix(nprocs):
+    if nprocs <= 1:
+        return []
+    cmd = ["mpirun", "-n", str(nprocs), "--oversubscribe"]
+    if os.geteuid() == 0:
+        cmd.insert(1, "--allow-run-as-root")
+    return cmd
+
+
+def child_env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), str(HERE)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    env.setdefault("OMP_NUM_THREADS", "1")
+    env.setdefault("OPENBLAS_NUM_THREADS", "1")
+    return env
+
+
+def fmt(value, spec=".3e"):
+    if value is None:
+        return "–"
+    if isinstance(value, float) and math.isnan(value):
+        return "nan"
+    if isinstance(value, (int, np.integer)):
+        return str(value)
+    return format(value, spec)
