@@ -34,8 +34,11 @@ def refine(domain, cells=None):
     if msh.comm.size > 1:
         child = _rebuild_with_unique_ghosts(child)
     n_owned = child.topology.index_map(2).size_local
-    midpoints = dmesh.compute_midpoints(child, 2, np.arange(n_owned, dtype=np.int32))
-    regions = np.rint(evaluate(domain.region, midpoints)[:, 0])
+    if len(domain.cell_groups) == 1:  # one region: nothing to locate
+        regions = np.full(n_owned, next(iter(domain.cell_groups.values())))
+    else:
+        midpoints = dmesh.compute_midpoints(child, 2, np.arange(n_owned, dtype=np.int32))
+        regions = np.rint(evaluate(domain.region, midpoints)[:, 0])
     return Domain(child, tag_exterior_facets(child, domain.segments), region_function(child, regions),
                   domain.facet_groups, domain.cell_groups, domain.segments)
 
@@ -56,12 +59,24 @@ def evaluate(function, points):
 
 
 def transfer(function, space):
-    """Interpolate a P1 ``function`` of the parent mesh into ``space`` on the child mesh."""
-    out = fem.Function(space, name=function.name)
+    """Interpolate a P1 ``function`` of the parent mesh into ``space`` on the child mesh.
+
+    Only the vertices of *owned* child cells are sure to lie in local parent cells (their parents are
+    owned here); a dof's owner may hold it through ghost cells only. So every rank evaluates the dofs of its
+    owned cells, and the owners average what they receive (reverse scatter of values and of counts).
+    """
+    out, count = fem.Function(space, name=function.name), fem.Function(space)
     bs = space.dofmap.index_map_bs
-    n_owned = space.dofmap.index_map.size_local
-    points = space.tabulate_dof_coordinates()[:n_owned]
-    out.x.array[:n_owned * bs] = evaluate(function, points).reshape(-1)
+    n_cells = space.mesh.topology.index_map(2).size_local
+    dofs = np.unique(space.dofmap.list.array.reshape(-1, 3)[:n_cells])
+    out.x.array.reshape(-1, bs)[dofs] = evaluate(function, space.tabulate_dof_coordinates()[dofs])
+    count.x.array.reshape(-1, bs)[dofs] = 1.0
+    for fn in (out, count):
+        fn.x.scatter_reverse(dolfinx.la.ScatterMode.add)
+    n_owned = space.dofmap.index_map.size_local * bs
+    if np.any(count.x.array[:n_owned] == 0):
+        raise RuntimeError("internal error: a dof of the refined mesh was not reached by the transfer")
+    out.x.array[:n_owned] /= count.x.array[:n_owned]
     out.x.scatter_forward()
     return out
 
