@@ -14,6 +14,7 @@ break interior-facet integrals on partition boundaries).
 from dataclasses import dataclass, field
 
 import numpy as np
+import ufl
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
@@ -114,6 +115,11 @@ def rectangle(comm, corners, cells, diagonal="right"):
     msh = dmesh.create_rectangle(comm, [np.array([x0, y0]), np.array([x1, y1])], [int(c) for c in cells],
                                  dmesh.CellType.triangle, dmesh.GhostMode.shared_facet,
                                  diagonal=getattr(dmesh.DiagonalType, diagonal))
+    # The coordinate element as gmshio declares it (equispaced P1). FFCx 0.5 gives that variant to the
+    # element while compiling, and refined meshes inherit it, so without this the first refined level
+    # would compile its forms a second time.
+    element = ufl.VectorElement(ufl.FiniteElement("Lagrange", "triangle", 1, variant="equispaced"))
+    msh = dmesh.Mesh(msh._mesh, ufl.Mesh(element))
     corners_ccw = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
     a = corners_ccw[[3, 1, 0, 2]]  # left, right, bottom, top
     b = corners_ccw[[0, 2, 1, 3]]

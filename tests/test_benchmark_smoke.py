@@ -71,16 +71,10 @@ def test_legacy_fenics_reaches_the_same_solution(smoke):
         assert r["legacy_force_rdiff"] < RTOL, (r["problem"], r["legacy_force_rdiff"])
 
 
-@pytest.mark.parametrize("problem", [
-    "corner",
-    # create_rectangle's coordinate element has no variant; FFCx 0.5 (analysis.py) then sets
-    # variant="equispaced" on the mesh's UFL domain *in place* while compiling the first forms, and
-    # dolfinx.mesh.refine copies that element to the child mesh: on level 1 the forms compiled before the
-    # mutation (the bulk form a and bind's two c_n/g_0 expressions) get a new signature and are compiled
-    # again. gmsh meshes (corner) are created equispaced and are not affected. Fix: build the rectangle
-    # with an equispaced coordinate element (as gmshio does); then this xfail turns into a failure.
-    pytest.param("block", marks=pytest.mark.xfail(strict=True, reason="3 forms recompiled on level 1")),
-])
+# Both meshes carry an equispaced P1 coordinate element (nc_dolfinx.meshes.rectangle sets it as gmshio
+# does): FFCx 0.5 would otherwise set the variant in place while compiling, refined meshes would inherit
+# it, and level 1 would compile its forms again.
+@pytest.mark.parametrize("problem", ["corner", "block"])
 def test_forms_compiled_once_per_run(smoke, problem):
     _, _, rows = smoke
     r = next(r for r in rows if r["problem"] == problem)
