@@ -47,10 +47,7 @@ class Estimate:
     fields: dict
     totals: dict
     time: float = 0.0
-    squares: np.ndarray = field(default=None, repr=False)  # η_K² on the owned cells
-
-    def eta_squared(self):
-        return self.squares
+    squares: np.ndarray = field(default=None, repr=False)  # η_K² on the owned cells (for marking)
 
 
 def _assemble_dg0(form, space):

@@ -38,6 +38,7 @@ class ResultWriter:
         self.staging = Path(comm.bcast(staging, root=0))
 
     def path(self, name):
+        """Staged path for a file every rank writes (collective: the folder exists when it returns)."""
         path = self.staging / name
         if self.comm.rank == 0:
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -59,6 +60,7 @@ class ResultWriter:
                 writer.writerows(rows)
 
     def path_local(self, name):
+        """Staged path for a file written by rank 0 alone (not collective)."""
         path = self.staging / name
         path.parent.mkdir(parents=True, exist_ok=True)
         return path
