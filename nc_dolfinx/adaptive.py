@@ -135,7 +135,7 @@ def run(problem, comm, settings, cli_options=None, on_level=None, progress=None)
         row.update({f"time_{k}": v for k, v in times.items()})
         history.append(row)
         if progress:
-            progress(_progress_line(row, stats))
+            progress(_progress_line(row))
         if last:
             break
         t = time.perf_counter()
@@ -154,7 +154,7 @@ def _estimator_options(problem):
     return opts
 
 
-def _progress_line(row, stats):
+def _progress_line(row):
     text = (f"level {row['level']:2d}: {row['dofs']:8d} dofs, {row['newton_iterations']:2d} Newton "
             f"({row['linear_iterations']} linear) its, solve {row['time_solve']:.2f} s, "
             f"eta = {row['eta']:.4e}")

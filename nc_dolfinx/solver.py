@@ -131,13 +131,14 @@ class NonlinearSolver:
         self.load_factor = 1.0
         self.contact = fem_petsc.create_vector(self.j_n)
         self.b = fem_petsc.create_vector(self.j_n)
+        if preconditioner_matrix not in PRECONDITIONER_MATRICES:
+            raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
         self.A = self.K.duplicate(copy=True)  # K's sparsity contains Γ_C's
-        self.P = self.K.duplicate(copy=True)  # stays equal to K (unchanged state: PC kept) until switched
+        # P stays equal to K (unchanged state: the PC is kept) until "auto" switches; "bulk" uses K itself.
+        self.P = self.K if preconditioner_matrix == "bulk" else self.K.duplicate(copy=True)
         near_nullspace = rigid_body_modes(u.function_space)
         for matrix in (self.A, self.P):
             matrix.setNearNullSpace(near_nullspace)
-        if preconditioner_matrix not in PRECONDITIONER_MATRICES:
-            raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
         self.mode = preconditioner_matrix
         set_petsc_options(options)
         self.snes = PETSc.SNES().create(u.function_space.mesh.comm)
@@ -200,5 +201,6 @@ class NonlinearSolver:
         return stats
 
     def destroy(self):
-        for obj in (self.snes, self.A, self.P, self.K, self.b, self.contact, self.load):
+        owned = [self.snes, self.A, self.K, self.b, self.contact, self.load]
+        for obj in owned + ([self.P] if self.P is not self.K else []):
             obj.destroy()
