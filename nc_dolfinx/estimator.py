@@ -88,12 +88,12 @@ def estimate(u, fields, contact_degree=CONTACT_DEGREE, cell_degree=CELL_DEGREE):
     dx = ufl.dx(metadata={"quadrature_degree": cell_degree})
     dS = ufl.dS
 
-    # Cells: |K|, ∫_K f, ∫_K |f|²  ->  η_1K and o_K = ‖f − f_K‖_K².
-    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=4)
+    # Cells: |K|, ∫_K f, ∫_K |f|², ∫_K h_K  ->  h_K, η_1K and o_K = ‖f − f_K‖_K² (one assembly).
+    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=5)
     wv = ufl.TestFunction(Qv)
-    cell = _assemble_dg0((wv[0] + f[0] * wv[1] + f[1] * wv[2] + ufl.inner(f, f) * wv[3]) * dx, Qv)
+    cell = _assemble_dg0((wv[0] + f[0] * wv[1] + f[1] * wv[2] + ufl.inner(f, f) * wv[3] + h * wv[4]) * dx, Qv)
     area, f_int, f_sq = cell[:, 0], cell[:, 1:3], cell[:, 3]
-    h_K = _assemble_dg0(h * w * ufl.dx, Q)[:, 0] / area
+    h_K = cell[:, 4] / area
     f_mean_sq = np.sum(f_int ** 2, axis=1) / area  # ‖f_K‖_K² = |∫_K f|² / |K|
     eta_1_sq = h_K ** 2 * f_mean_sq
     osc_f = np.maximum(f_sq - f_mean_sq, 0.0)
@@ -111,8 +111,10 @@ def estimate(u, fields, contact_degree=CONTACT_DEGREE, cell_degree=CELL_DEGREE):
     sigma_t, sigma_n = ufl.dot(s * n, t), ufl.dot(s * n, n)
     dC = forms.contact_measure(fields, contact_degree)
     law = forms.contact_pressure(u, fields, n) + sigma_n
-    contact = _assemble_dg0((h * sigma_t ** 2 * w) * dC, Q)[:, 0], _assemble_dg0((h * law ** 2 * w) * dC, Q)[:, 0]
-    eta_3_sq, eta_4_sq = contact
+    Qc = fem.VectorFunctionSpace(msh, ("DG", 0), dim=2)
+    wc = ufl.TestFunction(Qc)
+    contact = _assemble_dg0(h * (sigma_t ** 2 * wc[0] + law ** 2 * wc[1]) * dC, Qc)
+    eta_3_sq, eta_4_sq = contact[:, 0], contact[:, 1]
 
     zeta_sq = h_K ** 2 * _patch_sum(osc_f, area, Q) + osc_g
     squares = {"eta_1": eta_1_sq, "eta_2": eta_2_sq, "eta_3": eta_3_sq, "eta_4": eta_4_sq,
