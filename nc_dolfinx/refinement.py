@@ -1,11 +1,13 @@
 """Plaza refinement of marked cells, carrying boundary groups, regions and the solution to the new mesh.
 
 Refinement is done with ``redistribute=False``, so every child cell lives on the rank of its parent and
-inside a local (owned or ghost) parent cell. Regions and the displacement are therefore transferred by
-*local* point evaluation on the parent mesh: a region id at each child cell's midpoint, and the P1
-displacement at each child vertex (exact, since the new vertices are edge midpoints and P1 is linear along
-edges — this is nested iteration's initial guess). Boundary groups are re-derived geometrically from the
-level-0 segments (see :mod:`nc_dolfinx.meshes`).
+inside a local (owned or ghost) parent cell. Regions and the displacement are therefore transferred
+*locally*. A child vertex is either a parent vertex or the midpoint of a parent edge, and a P1 function is
+linear along edges, so the displacement at a child vertex is the parent's value there or the mean of the
+edge's two end values: exact (this is nested iteration's initial guess), and found by matching
+coordinates, without any point location. Region ids (only when there is more than one region) are
+evaluated at child cell midpoints. Boundary groups are re-derived geometrically from the level-0 segments
+(see :mod:`nc_dolfinx.meshes`).
 
 DOLFINx 0.5's refinement builds the new ghost layer with a partitioner that sends a cell once per
 off-rank *neighbour*: a cell with two facet-neighbours on the same rank arrives there twice, and the facet
@@ -62,14 +64,17 @@ def transfer(function, space):
     """Interpolate a P1 ``function`` of the parent mesh into ``space`` on the child mesh.
 
     Only the vertices of *owned* child cells are sure to lie in local parent cells (their parents are
-    owned here); a dof's owner may hold it through ghost cells only. So every rank evaluates the dofs of its
+    owned here); a dof's owner may hold it through ghost cells only. So every rank computes the dofs of its
     owned cells, and the owners average what they receive (reverse scatter of values and of counts).
     """
     out, count = fem.Function(space, name=function.name), fem.Function(space)
     bs = space.dofmap.index_map_bs
     n_cells = space.mesh.topology.index_map(2).size_local
-    dofs = np.unique(space.dofmap.list.array.reshape(-1, 3)[:n_cells])
-    out.x.array.reshape(-1, bs)[dofs] = evaluate(function, space.tabulate_dof_coordinates()[dofs])
+    in_owned_cell = np.zeros(space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts, bool)
+    in_owned_cell[space.dofmap.list.array.reshape(-1, 3)[:n_cells]] = True
+    dofs = np.flatnonzero(in_owned_cell)
+    out.x.array.reshape(-1, bs)[dofs] = _values_at_child_vertices(function,
+                                                                  space.tabulate_dof_coordinates()[dofs])
     count.x.array.reshape(-1, bs)[dofs] = 1.0
     for fn in (out, count):
         fn.x.scatter_reverse(dolfinx.la.ScatterMode.add)
@@ -79,6 +84,58 @@ def transfer(function, space):
     out.x.array[:n_owned] /= count.x.array[:n_owned]
     out.x.scatter_forward()
     return out
+
+
+def _values_at_child_vertices(function, points):
+    """P1 ``function`` at ``points`` (n, 3) that are vertices or edge midpoints of its local mesh.
+
+    A point that matches no vertex or midpoint (none should) is located in the mesh instead.
+    """
+    V = function.function_space
+    msh, bs = V.mesh, V.dofmap.index_map_bs
+    msh.topology.create_entities(1)
+    msh.topology.create_connectivity(1, 0)
+    msh.topology.create_connectivity(2, 0)
+    cell_vertices = msh.topology.connectivity(2, 0).array
+    dof_of_vertex = np.empty(msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts,
+                             dtype=np.int32)
+    dof_of_vertex[cell_vertices] = V.dofmap.list.array
+    edge_dofs = dof_of_vertex[msh.topology.connectivity(1, 0).array.reshape(-1, 2)]
+    x = V.tabulate_dof_coordinates()[:, :2]
+    values = function.x.array.reshape(-1, bs)
+    known_x = np.concatenate([x, 0.5 * (x[edge_dofs[:, 0]] + x[edge_dofs[:, 1]])])
+    known_values = np.concatenate([values, 0.5 * (values[edge_dofs[:, 0]] + values[edge_dofs[:, 1]])])
+
+    index = _match_points(known_x, points[:, :2])
+    found = index >= 0
+    result = np.empty((len(points), bs))
+    result[found] = known_values[index[found]]
+    if not np.all(found):
+        result[~found] = evaluate(function, points[~found])
+    return result
+
+
+def _match_points(known, wanted):
+    """Index into ``known`` (n, 2) of each ``wanted`` point, -1 where none matches.
+
+    Coordinates are compared rounded to 2^-30 of the extent of ``known`` (so a midpoint summed in another order still
+    matches) through one sorted int64 key; if rounding merges two known points, nothing is matched.
+    """
+    if len(known) == 0 or len(wanted) == 0:
+        return np.full(len(wanted), -1)
+    low = np.array([known[:, 0].min(), known[:, 1].min()])
+    extent = max(known[:, 0].max() - low[0], known[:, 1].max() - low[1])
+    scale = max(extent, np.finfo(float).tiny) * 2.0 ** -30
+    key = lambda p: (np.rint((p[:, 0] - low[0]) / scale).astype(np.int64) << 31) \
+        + np.rint((p[:, 1] - low[1]) / scale).astype(np.int64)
+    known_keys = key(known)
+    order = np.argsort(known_keys)
+    sorted_keys = known_keys[order]
+    if np.any(sorted_keys[1:] == sorted_keys[:-1]):
+        return np.full(len(wanted), -1)
+    wanted_keys = key(wanted)
+    position = np.minimum(np.searchsorted(sorted_keys, wanted_keys), len(sorted_keys) - 1)
+    return np.where(sorted_keys[position] == wanted_keys, order[position], -1)
 
 
 def _rebuild_with_unique_ghosts(msh):

@@ -67,3 +67,22 @@ def test_parallel_refinement_is_the_serial_one(levels, nprocs):
 def test_solution_transfer_is_exact_for_linear_fields(levels, nprocs):
     for row in levels[nprocs][1:]:
         assert row["transfer_error"] < 1e-12
+        assert row["transfer_located_points"] == 0  # every child vertex matched a vertex or edge midpoint
+
+
+def test_point_matching():
+    """Child vertices are matched to parent vertices/midpoints by rounded coordinates, never wrongly."""
+    import numpy as np
+    from nc_dolfinx.refinement import _match_points
+    rng = np.random.default_rng(1)
+    known = rng.random((1000, 2)) * [3.0, 1e-3] + [-1.0, 5.0]
+    a, b = known[:10], known[10:20]
+    midpoints = 0.5 * (a + b)
+    known = np.concatenate([known, midpoints])
+    wanted = np.concatenate([known[[5, 999, 3]], b * 0.5 + a * 0.5, [[0.123, 0.456]], known[[7]] + [1e-6, 0]])
+    index = _match_points(known, wanted)
+    np.testing.assert_array_equal(index[:3], [5, 999, 3])
+    np.testing.assert_array_equal(index[3:13], np.arange(1000, 1010))  # midpoints summed in the other order
+    assert index[13] == -1 and index[14] == -1  # a far point, a point 1e-6 off a known one
+    merged = np.concatenate([known, known[:1] + 1e-14])  # two known points closer than the rounding
+    assert np.all(_match_points(merged, wanted) == -1)

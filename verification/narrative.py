@@ -49,7 +49,7 @@ contact edge.
   changes sign, so these edge integrals use a Gauss rule of degree {contact_est}.
 - Cell integrals (f, f_K) use degree {cell_est}. η = (Σ_K η_K²)^{{1/2}}, η_i = (Σ_K η_iK²)^{{1/2}}.
 - ζ_K² = h_K² Σ_{{K' ⊂ ω_K}} ‖f − f_K'‖²_K' + Σ_{{E ⊂ ∂K ∩ Γ_N}} h_E ‖g − g_E‖²_E with ω_K the cells sharing a vertex
-  with K (the vertex patch sum is computed by inclusion–exclusion, `_patch_sum`).
+  with K (the vertex patch sum is computed by inclusion–exclusion, `patch_sum`).
 
 **Errors (`nc_dolfinx/quantities.py`).** ‖u − u_h‖_1 is the full H¹ norm (L² part included) and ‖u − u_h‖_0 the L²
 norm, both with a degree-{error} rule against the exact solution; Remark 9's augmented error is
@@ -184,7 +184,7 @@ roughly {100 * (1 - (1 - co['histories']['adaptive'][-1]['dofs'] / ref['dofs']) 
 η_2K by ‖u − u_h‖_{1,ω_K} + ζ_K, and η_4K by h_K^{1/2} (C(p)‖u_n − u_hn‖_{L^p(E)} + ‖σ_n(u − u_h)‖_E). On the
 manufactured problem (smooth f and g: ζ_K is of higher order) the ratio η_K / ‖u − u_h‖_{1,ω_K} is computed on every
 cell and every level: the exact local error squared is assembled per cell (degree 8) and summed over the vertex
-patch ω_K with the estimator's own patch sum (`estimator._patch_sum`). A bounded ratio under refinement is the
+patch ω_K with the estimator's own patch sum (`estimator.patch_sum`). A bounded ratio under refinement is the
 observable form of local efficiency; small ratios (η_K ≪ local error, e.g. where the error is pollution from
 elsewhere) are allowed by the theory and do occur. The last column adds the contact part of Remark 9 to the local
 error on cells touching Γ_C: η_K / (‖e‖_{1,ω_K} + (Σ_{E ⊂ ∂K ∩ Γ_C} h_E ‖σ_n(e)‖²_E)^{1/2}).

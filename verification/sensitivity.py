@@ -14,11 +14,11 @@ from pathlib import Path
 
 from common import PYTHON, ROOT, child_env
 
-JUMP = 'eta_2_sq = _assemble_dg0(ufl.inner(jump, jump) * (h("+") * w("+") + h("-") * w("-")) * dS, Q)[:, 0]'
+JUMP = 'eta_2_sq = assemble_cellwise(ufl.inner(jump, jump) * (h("+") * w("+") + h("-") * w("-")) * dS, Q)[:, 0]'
 BREAKS = {
     "interior jumps dropped from η_2": (JUMP, "eta_2_sq = 0.0 * " + JUMP.split(" = ", 1)[1]),
     "h_E² instead of h_K on interior edges": (
-        JUMP, 'eta_2_sq = _assemble_dg0(ufl.inner(jump, jump) * (ufl.FacetArea(msh) ** 2 * (w("+") + w("-"))) * dS, '
+        JUMP, 'eta_2_sq = assemble_cellwise(ufl.inner(jump, jump) * (ufl.FacetArea(msh) ** 2 * (w("+") + w("-"))) * dS, '
               'Q)[:, 0]'),
 }
 COPY = ["nc_dolfinx", "verification", "meshes", "run_cases.py"]

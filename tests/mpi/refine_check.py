@@ -45,16 +45,24 @@ def measures(domain):
 
 
 def transfer_error(parent, child):
-    """Transfer of a P1 field that is linear in x is exact at every child vertex."""
+    """Transfer of a P1 field that is linear in x is exact at every child vertex; also returns how many
+    child vertices had to be located by point search (none: all match a parent vertex or edge midpoint)."""
     Vp = fem.VectorFunctionSpace(parent.mesh, ("CG", 1))
     Vc = fem.VectorFunctionSpace(child.mesh, ("CG", 1))
     linear = lambda x: np.stack([1 + 2 * x[0] - x[1], 3 * x[1] + 0.5 * x[0]])  # noqa: E731
     up = fem.Function(Vp)
     up.interpolate(linear)
-    uc = refinement.transfer(up, Vc)
+    located = []
+    search = refinement.evaluate
+    refinement.evaluate = lambda f, points: located.append(len(points)) or search(f, points)
+    try:
+        uc = refinement.transfer(up, Vc)
+    finally:
+        refinement.evaluate = search
     exact = fem.Function(Vc)
     exact.interpolate(linear)
-    return comm.allreduce(float(np.max(np.abs(uc.x.array - exact.x.array), initial=0.0)), MPI.MAX)
+    error = comm.allreduce(float(np.max(np.abs(uc.x.array - exact.x.array), initial=0.0)), MPI.MAX)
+    return error, comm.allreduce(sum(located), MPI.SUM)
 
 
 levels = [measures(domain)]
@@ -64,7 +72,8 @@ for step in range(3):
     # mark the cells near the point where the two regions and the bottom meet, and near a far corner
     near = (np.hypot(mid[:, 0] - 1.0, mid[:, 1]) < 0.5 / (step + 1)) | (np.hypot(mid[:, 0] - 2, mid[:, 1] - 1) < 0.3)
     child = refinement.refine(domain, np.flatnonzero(near).astype(np.int32))
-    levels.append(measures(child) | {"transfer_error": transfer_error(domain, child)})
+    error, located = transfer_error(domain, child)
+    levels.append(measures(child) | {"transfer_error": error, "transfer_located_points": located})
     domain = child
 if comm.rank == 0:
     print(json.dumps(levels))
