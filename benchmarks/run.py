@@ -61,7 +61,7 @@ SETTINGS = {
     # at the transferred solution on a nested level
     "ew3-jac-once": (EW3 + ["snes_lag_preconditioner=100"], "jacobian", True),
 }
-DEFAULT_SETTINGS = "ew3-bulk"
+DEFAULT_SETTINGS = "shipped"
 PROBLEMS = ("block", "corner")
 
 
@@ -210,6 +210,20 @@ def our_solve(problem, domain, options, pc_matrix, initial=None, nullspace_on_K=
     return fields, u, solver, out
 
 
+def warm_up(solve_here, domain, initial, enabled):
+    """One untimed set-up and solve on ``domain`` before the timed one (None when not ``enabled``).
+
+    The timed solve then excludes what only the first solve in a process pays: JIT cache look-ups,
+    PETSc/MPI first use, and first-touch of fresh memory. The last is large on this VM: its balloon
+    driver hands freed pages back to the host within ~3 s, and touching them again costs 1.1-1.6 s/GB
+    instead of 0.07-0.16 s/GB (see benchmarks/README.md)."""
+    if not enabled:
+        return None
+    _, _, solver, stats = solve_here(domain, initial)
+    solver.destroy()
+    return stats
+
+
 def quantities(u, fields):
     import ufl
     from nc_dolfinx import forms
@@ -326,11 +340,15 @@ def worker(args):
                options=" ".join(f"{k}={v}" for k, v in cli_options.items()),
                dofs=2 * domain.num_vertices(), cells=domain.num_cells())
 
-    fields, u, solver, s = our_solve(problem, domain, options, pc_matrix, None, args.nullspace_on_K, jit,
-                                      atol_from_load)
+    solve_here = lambda mesh_domain, initial: our_solve(problem, mesh_domain, options, pc_matrix, initial,  # noqa: E731
+                                                        args.nullspace_on_K, jit, atol_from_load)
+    first = warm_up(solve_here, domain, None, args.warmup)
+    fields, u, solver, s = solve_here(domain, None)
     row.update(t_setup=s["setup"], t_solve=s["solve"], t_pc_setup=s["pc_setup"], newton=s["newton"],
-               krylov=s["krylov"], jit_s=s["jit_setup"], compiled=s["compiled_setup"], pc_mode=s["pc_mode"],
-               pc_has_nullspace=s["pc_has_nullspace"])
+               krylov=s["krylov"], jit_s=(first or s)["jit_setup"], compiled=(first or s)["compiled_setup"],
+               pc_mode=s["pc_mode"], pc_has_nullspace=s["pc_has_nullspace"])
+    if first:
+        row.update(t_setup_first=first["setup"], t_solve_first=first["solve"])
     row["t_linear"], row["linear_its"], row["t_linear_pc_setup"], row["linear_true_rel_residual"] = \
         linear_solve(solver.K, solver.load, options, "lin_", s["nullspace"])
     # the same solve to the nonlinear solve's accuracy: true residual ||L - K u|| <= snes_rtol ||L||
@@ -344,6 +362,8 @@ def worker(args):
     row["mem_solve_MB"] = max_rss_mb()
     row.update(quantities(u, fields))
 
+    if args.warmup:  # as on a later level of the loop: the estimator's forms were created once before
+        estimator.estimate(u, fields)
     t = time.perf_counter()
     est = estimator.estimate(u, fields)
     row["t_estimate"] = time.perf_counter() - t
@@ -366,8 +386,8 @@ def worker(args):
 
     if not args.no_nested:
         j0 = jit.snapshot()
-        fields2, u2, solver2, s2 = our_solve(problem, child, options, pc_matrix, u, args.nullspace_on_K, jit,
-                                               atol_from_load)
+        warm_up(solve_here, child, u, args.warmup)
+        fields2, u2, solver2, s2 = solve_here(child, u)
         row.update(nested_dofs=2 * child.num_vertices(), t_nested_setup=s2["setup"], t_transfer=s2["transfer"],
                    t_nested_solve=s2["solve"], nested_newton=s2["newton"], nested_krylov=s2["krylov"],
                    nested_pc_mode=s2["pc_mode"])
@@ -485,6 +505,8 @@ def driver(args):
                         cmd += ["--nullspace-on-K"]
                     if args.no_nested:
                         cmd += ["--no-nested"]
+                    if not args.warmup:
+                        cmd += ["--no-warmup"]
                     if legacy_here and problem != "block":
                         cmd += ["--export-mesh", mesh_npz]
                     for item in args.petsc or []:
@@ -618,6 +640,8 @@ def main(argv=None):
     p.add_argument("--legacy-max-dofs", default="2e5", help="legacy FEniCS up to this size")
     p.add_argument("--no-legacy", action="store_true")
     p.add_argument("--no-nested", action="store_true", help="skip the nested-iteration level")
+    p.add_argument("--no-warmup", dest="warmup", action="store_false",
+                   help="time the first solve in each process (default: an identical untimed solve first)")
     p.add_argument("--cold-jit-cache", action="store_true",
                    help="workers use an empty FFCx cache (XDG_CACHE_HOME): shows compilation once per run")
     p.add_argument("--timeout", type=float, default=1800, help="seconds per worker process")
