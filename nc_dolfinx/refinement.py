@@ -12,11 +12,14 @@ evaluated at child cell midpoints. Boundary groups are re-derived geometrically 
 DOLFINx 0.5's refinement builds the new ghost layer with a partitioner that sends a cell once per
 off-rank *neighbour*: a cell with two facet-neighbours on the same rank arrives there twice, and the facet
 between the duplicate ghosts and their neighbour then has three cells and drops out of interior-facet
-(``dS``) integrals (seen on 3 ranks: one interior edge missing from the jump terms of η_2). We therefore
-re-create the refined mesh with :func:`_rebuild_with_unique_ghosts`, which keeps every cell on its rank and
-ghosts it once on each neighbouring rank.
+(``dS``) integrals (seen on 3 ranks: one interior edge missing from the jump terms of η_2). When that
+happens (a facet with more than two cells on some rank), we re-create the refined mesh with
+:func:`_rebuild_with_unique_ghosts`, which keeps every cell on its rank and ghosts it once on each
+neighbouring rank. The check is cheap; the rebuild costs about four DOLFINx refinements, so it is done
+only when needed.
 """
 import numpy as np
+from mpi4py import MPI
 
 import dolfinx
 from dolfinx import fem, geometry, mesh as dmesh
@@ -33,7 +36,7 @@ def refine(domain, cells=None):
         msh.topology.create_entities(1)
         edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), 2, 1)
         child = dmesh.refine(msh, edges, redistribute=False)
-    if msh.comm.size > 1:
+    if msh.comm.size > 1 and _has_duplicate_ghosts(child):
         child = _rebuild_with_unique_ghosts(child)
     n_owned = child.topology.index_map(2).size_local
     if len(domain.cell_groups) == 1:  # one region: nothing to locate
@@ -138,6 +141,14 @@ def _match_points(known, wanted):
     return np.where(sorted_keys[position] == wanted_keys, order[position], -1)
 
 
+def _has_duplicate_ghosts(msh):
+    """Whether a facet has more than two local cells on some rank (a cell ghosted twice next to it)."""
+    msh.topology.create_entities(1)
+    msh.topology.create_connectivity(1, 2)
+    offsets = msh.topology.connectivity(1, 2).offsets
+    return msh.comm.allreduce(bool(np.any(np.diff(offsets) > 2)), MPI.LOR)
+
+
 def _rebuild_with_unique_ghosts(msh):
     """The same distributed mesh (owned cells stay on their rank), with a duplicate-free ghost layer."""
     comm = msh.comm
@@ -154,11 +165,14 @@ def _rebuild_with_unique_ghosts(msh):
         rank = comm.rank
         cell = np.repeat(np.arange(graph.num_nodes), np.diff(graph.offsets))
         owner = np.searchsorted(starts, graph.array, side="right") - 1
-        pairs = np.unique(np.stack([cell, owner], 1)[owner != rank], axis=0)
-        ghosts = np.split(pairs[:, 1], np.searchsorted(pairs[:, 0], np.arange(1, graph.num_nodes)))
-        destinations = [np.concatenate([[rank], g]) for g in ghosts]
-        offsets = np.concatenate([[0], np.cumsum([len(d) for d in destinations])]).astype(np.int32)
-        array = np.concatenate(destinations).astype(np.int32) if destinations else np.zeros(0, np.int32)
+        # each cell goes to its own rank first, then once to every other rank owning a neighbour
+        key = np.unique(cell[owner != rank].astype(np.int64) * comm.size + owner[owner != rank])
+        ghost_cell, ghost_rank = key // comm.size, key % comm.size
+        offsets = np.zeros(graph.num_nodes + 1, dtype=np.int32)
+        offsets[1:] = np.cumsum(1 + np.bincount(ghost_cell, minlength=graph.num_nodes))
+        array = np.full(offsets[-1], rank, dtype=np.int32)
+        first_of_cell = np.searchsorted(ghost_cell, ghost_cell)  # pairs are sorted by cell
+        array[offsets[ghost_cell] + 1 + np.arange(len(key)) - first_of_cell] = ghost_rank
         return dolfinx.cpp.graph.AdjacencyList_int32(array, offsets)
 
     return dmesh.create_mesh(comm, cells, x, msh.ufl_domain(), dmesh.GhostMode.shared_facet,
