@@ -462,11 +462,14 @@ def run_legacy(problem, nprocs, row, mesh_npz, tmp, args):
         cmd += ["--cells", *row["block_cells"]]
     else:
         cmd += ["--mesh-npz", mesh_npz]
-    proc = launch(cmd, nprocs, args.timeout)
-    if proc.returncode != 0:
-        print(f"  legacy FEniCS failed ({problem}, np={nprocs}):\n{proc.stderr[-2000:]}", file=sys.stderr)
-        return {}
-    leg = json.loads(out.read_text())
+    runs = []
+    for _ in range(args.repeat):  # the fastest of as many runs as ours
+        proc = launch(cmd, nprocs, args.timeout)
+        if proc.returncode != 0:
+            print(f"  legacy FEniCS failed ({problem}, np={nprocs}):\n{proc.stderr[-2000:]}", file=sys.stderr)
+            return {}
+        runs.append(json.loads(out.read_text()))
+    leg = min(runs, key=lambda r: r["setup"] + r["solve"])
     ours = row["t_setup"] + row["t_solve"]
     return {"t_legacy": leg["setup"] + leg["solve"], "legacy_newton": leg["newton"], "legacy_krylov": leg["krylov"],
             "legacy_energy_rdiff": abs(leg["energy"] - row["energy"]) / abs(row["energy"]),
@@ -487,50 +490,53 @@ def driver(args):
         print("legacy FEniCS (python3-dolfin) not importable: its columns stay empty", file=sys.stderr)
     extra_env = {"XDG_CACHE_HOME": tempfile.mkdtemp(prefix="nc_bench_cache_")} if args.cold_jit_cache else None
     try:
-        for nprocs in args.np:
-            for problem in args.problems:
-                for size in (args.parallel_sizes or args.sizes) if nprocs > 1 else args.sizes:
-                    out = Path(tmp) / f"{problem}_{nprocs}_{size}.json"
-                    mesh_npz = Path(tmp) / f"{problem}_{size}.npz"
-                    legacy_here = have_legacy and float(size) <= float(args.legacy_max_dofs)
-                    cmd = [Path(__file__).resolve(), "--worker", "--problem", problem, "--size", size,
-                           "--json", out, "--baseline-max-dofs", args.baseline_max_dofs,
-                           "--baselines", *args.baselines]
-                    cmd += ["--settings", args.settings]
-                    if args.preset:
-                        cmd += ["--preset", args.preset]
-                    if args.pc_matrix:
-                        cmd += ["--pc-matrix", args.pc_matrix]
-                    if args.nullspace_on_K:
-                        cmd += ["--nullspace-on-K"]
-                    if args.no_nested:
-                        cmd += ["--no-nested"]
-                    if not args.warmup:
-                        cmd += ["--no-warmup"]
-                    if legacy_here and problem != "block":
-                        cmd += ["--export-mesh", mesh_npz]
-                    for item in args.petsc or []:
-                        cmd += ["--petsc", item]
-                    start = time.perf_counter()
-                    proc = launch(cmd, nprocs, args.timeout, extra_env)
-                    if proc.returncode != 0:
-                        error = (proc.stderr.strip().splitlines() or ["?"])[-1]
-                        print(f"worker failed: {problem} np={nprocs} size={size}\n{proc.stderr[-3000:]}",
-                              file=sys.stderr)
-                        rows.append({"problem": problem, "np": nprocs, "dofs": size, "error": error})
-                        failed = True
-                        continue
-                    row = json.loads(out.read_text())
-                    if problem == "block":
-                        row["block_cells"] = block_overrides(float(size))[0].split("=")[1].strip("[]").split(",")
-                    if legacy_here and row["dofs"] <= float(args.legacy_max_dofs):
-                        row.update(run_legacy(problem, nprocs, row, mesh_npz, tmp, args))
-                    row.pop("block_cells", None)
-                    row["wall_process"] = time.perf_counter() - start
-                    rows.append(row)
-                    if not args.quiet:
-                        print(f"  done {problem} np={nprocs} dofs={row['dofs']} "
-                              f"({row['wall_process']:.0f} s)", file=sys.stderr, flush=True)
+        for problem, size, nprocs in cases(args):
+            out = Path(tmp) / f"{problem}_{nprocs}_{size}.json"
+            mesh_npz = Path(tmp) / f"{problem}_{size}.npz"
+            legacy_here = have_legacy and float(size) <= float(args.legacy_max_dofs)
+            cmd = [Path(__file__).resolve(), "--worker", "--problem", problem, "--size", size,
+                   "--json", out, "--baseline-max-dofs", args.baseline_max_dofs]
+            cmd += ["--settings", args.settings]
+            if args.preset:
+                cmd += ["--preset", args.preset]
+            if args.pc_matrix:
+                cmd += ["--pc-matrix", args.pc_matrix]
+            if args.nullspace_on_K:
+                cmd += ["--nullspace-on-K"]
+            if args.no_nested:
+                cmd += ["--no-nested"]
+            if not args.warmup:
+                cmd += ["--no-warmup"]
+            if legacy_here and problem != "block":
+                cmd += ["--export-mesh", mesh_npz]
+            for item in args.petsc or []:
+                cmd += ["--petsc", item]
+            start = time.perf_counter()
+            repeats, error = [], None
+            for repeat in range(args.repeat):  # baselines in the first process only
+                proc = launch(cmd + ["--baselines", *(args.baselines if repeat == 0 else [])], nprocs,
+                              args.timeout, extra_env)
+                if proc.returncode != 0:
+                    error = (proc.stderr.strip().splitlines() or ["?"])[-1]
+                    print(f"worker failed: {problem} np={nprocs} size={size}\n{proc.stderr[-3000:]}",
+                          file=sys.stderr)
+                    break
+                repeats.append(json.loads(out.read_text()))
+            if error is not None:
+                rows.append({"problem": problem, "np": nprocs, "dofs": size, "error": error})
+                failed = True
+                continue
+            row = fastest(repeats)
+            if problem == "block":
+                row["block_cells"] = block_overrides(float(size))[0].split("=")[1].strip("[]").split(",")
+            if legacy_here and row["dofs"] <= float(args.legacy_max_dofs):
+                row.update(run_legacy(problem, nprocs, row, mesh_npz, tmp, args))
+            row.pop("block_cells", None)
+            row["wall_process"] = time.perf_counter() - start
+            rows.append(row)
+            if not args.quiet:
+                print(f"  done {problem} np={nprocs} dofs={row['dofs']} "
+                      f"({row['wall_process']:.0f} s)", file=sys.stderr, flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
         if extra_env:
@@ -544,6 +550,29 @@ def driver(args):
     if failed:
         sys.exit(1)
     return rows
+
+
+def cases(args):
+    """(problem, size, np) in the order they run: the rank counts of one size back to back, so that
+    the speed-up compares runs minutes apart rather than the two ends of the benchmark (this VM's speed
+    drifts by tens of per cent over a run)."""
+    out = []
+    for problem in args.problems:
+        sizes = list(dict.fromkeys(args.sizes + (args.parallel_sizes or [])))
+        for size in sorted(sizes, key=float):
+            for nprocs in args.np:
+                if size in (args.parallel_sizes or args.sizes if nprocs > 1 else args.sizes):
+                    out.append((problem, size, nprocs))
+    return out
+
+
+def fastest(repeats):
+    """The repeat with the smallest setup + solve (a whole row: its ratios come from one process), with
+    the baseline columns of the first repeat, which alone ran them (their ratios are from that process)."""
+    row = dict(min(repeats, key=lambda r: r["t_setup"] + r["t_solve"]))
+    row.update({k: v for k, v in repeats[0].items() if "base_" in k})
+    row["repeats"] = len(repeats)
+    return row
 
 
 def add_scaling(rows):
@@ -640,6 +669,8 @@ def main(argv=None):
     p.add_argument("--legacy-max-dofs", default="2e5", help="legacy FEniCS up to this size")
     p.add_argument("--no-legacy", action="store_true")
     p.add_argument("--no-nested", action="store_true", help="skip the nested-iteration level")
+    p.add_argument("--repeat", type=int, default=1,
+                   help="run every case this many times and keep the fastest (setup + solve)")
     p.add_argument("--no-warmup", dest="warmup", action="store_false",
                    help="time the first solve in each process (default: an identical untimed solve first)")
     p.add_argument("--cold-jit-cache", action="store_true",
