@@ -117,8 +117,10 @@ class NonlinearSolver:
         """``preconditioner_matrix`` is the matrix the PC is built from:
         "bulk": K, set up once per mesh — cheap while the foundation is soft compared with the body;
         "jacobian": J, set up at every Newton step — robust for a stiff foundation (penalty);
-        "auto": K, switching to J for good once a Newton system needs more than AUTO_SWITCH_ITERATIONS
-        Krylov iterations (a count, not a time, so that every rank and every run decides alike).
+        "auto": J(u_0) at the initial guess, set up once — K itself on a cold start without initial
+        penetration, the contact stiffness of the transferred solution on a nested level — switching to
+        J at every step for good once a Newton system needs more than AUTO_SWITCH_ITERATIONS Krylov
+        iterations (a count, not a time, so that every rank and every run decides alike).
         """
         self.u, self.bcs = u, bcs
         a, L = fem.form(forms.a), fem.form(forms.L)
@@ -134,7 +136,8 @@ class NonlinearSolver:
         if preconditioner_matrix not in PRECONDITIONER_MATRICES:
             raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
         self.A = self.K.duplicate(copy=True)  # K's sparsity contains Γ_C's
-        # P stays equal to K (unchanged state: the PC is kept) until "auto" switches; "bulk" uses K itself.
+        # "auto" copies J(u_0) into P once per solve (P unchanged afterwards: the PC is kept) until it
+        # switches; "bulk" uses K itself.
         self.P = self.K if preconditioner_matrix == "bulk" else self.K.duplicate(copy=True)
         near_nullspace = rigid_body_modes(u.function_space)
         for matrix in (self.A, self.P):
@@ -170,11 +173,11 @@ class NonlinearSolver:
         self.K.copy(A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         fem_petsc.assemble_matrix(A, self.j_n_jacobian, bcs=self.bcs)
         A.assemble()
-        if (self.mode == "auto" and snes.getIterationNumber() > 0
-                and snes.getKSP().getIterationNumber() > AUTO_SWITCH_ITERATIONS):
+        first = snes.getIterationNumber() == 0
+        if self.mode == "auto" and not first and snes.getKSP().getIterationNumber() > AUTO_SWITCH_ITERATIONS:
             self.mode = "jacobian"
-        if self.mode == "jacobian":
-            # While P is left untouched PETSc sees an unchanged matrix and keeps the PC built from K.
+        if self.mode == "jacobian" or (self.mode == "auto" and first):
+            # While P is left untouched PETSc sees an unchanged matrix and keeps its PC.
             A.copy(P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
 
     def solve(self, load_steps=1):

@@ -49,6 +49,25 @@ def test_auto_switches_to_the_jacobian_for_a_stiff_foundation():
     assert stiff_auto.linear_iterations < stiff_bulk.linear_iterations
 
 
+def test_auto_builds_the_preconditioner_from_the_jacobian_at_the_initial_guess():
+    """On a nested level (the solution of the parent mesh as initial guess) "auto" factorises J(u_0),
+    nearly the Jacobian of every Newton step: at most two CG iterations per step, against ~11 with
+    "bulk" (Cholesky of K) (measured: 4 against 22 over 2 steps); both reach the same solution."""
+    from nc_dolfinx import refinement
+    problem = problem_module.load_problem(BLOCK, ["mesh.cells=[24,12]"])
+    domain = problem_module.build_domain(problem, MPI.COMM_WORLD)
+    _, parent, _ = adaptive.solve_level(problem, domain, solver_options("direct"))
+    child = refinement.refine(domain)
+    results = {mode: adaptive.solve_level(problem, child, solver_options("direct"),
+                                          initial=parent, preconditioner_matrix=mode)
+               for mode in ("auto", "bulk")}
+    (_, u_auto, auto), (_, u_bulk, bulk) = results["auto"], results["bulk"]
+    assert auto.newton_iterations == bulk.newton_iterations
+    assert auto.linear_iterations <= 2 * auto.newton_iterations
+    assert bulk.linear_iterations >= 4 * auto.linear_iterations
+    assert close(u_auto.x.array, u_bulk.x.array, rtol=1e-9)
+
+
 def test_load_stepping_reaches_the_same_solution(reference):
     u, stats = solve(load_steps=4)
     assert close(u, reference)
