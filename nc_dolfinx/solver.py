@@ -28,9 +28,9 @@ NEWTON_DEFAULTS = {
 # Unless an snes_atol is given, ‖F‖ <= ATOL_OF_LOAD ‖L‖ also counts as converged: with a good initial
 # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
 ATOL_OF_LOAD = 1e-10
-# Both presets run CG on the Jacobian J = K + j_n'(u); the preconditioner is built from the constant bulk
-# stiffness K (see NonlinearSolver), so it is set up once per mesh: a Cholesky factorisation of K
-# (MUMPS, AMF ordering: the fastest measured here) or GAMG with the rigid-body near-nullspace.
+# Both presets run CG on the Jacobian J = K + j_n'(u); the preconditioner is built once per mesh from K or
+# from J(u_0) (see NonlinearSolver): a Cholesky factorisation (MUMPS, AMF ordering: the fastest measured
+# here) or GAMG with the rigid-body near-nullspace.
 PRESETS = {
     "direct": {"ksp_type": "cg", "ksp_rtol": 1e-10, "pc_type": "cholesky",
                "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_7": 2},
