@@ -340,8 +340,9 @@ def worker(args):
                options=" ".join(f"{k}={v}" for k, v in cli_options.items()),
                dofs=2 * domain.num_vertices(), cells=domain.num_cells())
 
-    solve_here = lambda mesh_domain, initial: our_solve(problem, mesh_domain, options, pc_matrix, initial,  # noqa: E731
-                                                        args.nullspace_on_K, jit, atol_from_load)
+    def solve_here(mesh_domain, initial):
+        return our_solve(problem, mesh_domain, options, pc_matrix, initial, args.nullspace_on_K, jit,
+                         atol_from_load)
     first = warm_up(solve_here, domain, None, args.warmup)
     fields, u, solver, s = solve_here(domain, None)
     row.update(t_setup=s["setup"], t_solve=s["solve"], t_pc_setup=s["pc_setup"], newton=s["newton"],

@@ -121,8 +121,9 @@ def _values_at_child_vertices(function, points):
 def _match_points(known, wanted):
     """Index into ``known`` (n, 2) of each ``wanted`` point, -1 where none matches.
 
-    Coordinates are compared rounded to 2^-30 of the extent of ``known`` (so a midpoint summed in another order still
-    matches) through one sorted int64 key; if rounding merges two known points, nothing is matched.
+    Coordinates are compared rounded to 2^-30 of the extent of ``known`` (so a midpoint summed in another
+    order still matches) through one sorted int64 key; if rounding merges two known points, nothing is
+    matched (the caller then locates every point).
     """
     if len(known) == 0 or len(wanted) == 0:
         return np.full(len(wanted), -1)
