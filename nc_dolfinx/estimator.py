@@ -17,9 +17,9 @@ only. The integrals are grouped into as few assemblies as possible (one for cell
 edges, one per Neumann slot below): each assembly has a fixed cost of a form and a cell-sized vector.
 Two per-edge quantities need care:
 - g_E: the means are per *edge*, and a cell may have two or three Neumann edges. Each Neumann facet is
-  tagged with its *slot* j ∈ {0, 1, 2}, its rank among its cell's Neumann facets, so ``ds`` over one slot
-  sees at most one edge per cell and the per-edge integrals ∫_E g, ∫_E (σν − g), ∫_E |g|², |E| come out
-  separately; slots 1 and 2 exist only where a cell has several Neumann edges (corners).
+  tagged with its local index i ∈ {0, 1, 2} in its cell (its *slot*), so ``ds`` over one slot sees at most
+  one edge per cell and the per-edge integrals ∫_E g, ∫_E (σν − g), ∫_E |g|², |E| come out separately;
+  slots used on no rank are skipped.
 - the patch sum over ω_K: with o_K = ‖f − f_K‖_K², vertex sums S_x = Σ_{K ∋ x} o_K give by
   inclusion–exclusion Σ_{K' ⊂ ω_K} o_K' = Σ_{x ∈ K} S_x − 2 o_K − Σ_{N ~ K} o_N (N: the edge neighbours),
   which needs only facet ghosts (:func:`patch_sum`).
@@ -66,19 +66,19 @@ def assemble_cellwise(form, space):
 
 
 def neumann_slot_tags(fields):
-    """Neumann facets tagged 1 + 3k + j: k the Neumann group's position, j the facet's slot in its cell."""
+    """Neumann facets tagged 1 + 3k + i: k the Neumann group's position, i the facet's local index in its
+    cell (the same on every rank that holds the cell, whoever owns the facet)."""
     msh, tags = fields.domain.mesh, fields.domain.facet_tags
     msh.topology.create_connectivity(1, 2)
-    f2c = msh.topology.connectivity(1, 2)
+    msh.topology.create_connectivity(2, 1)
+    f2c, c2f = msh.topology.connectivity(1, 2), msh.topology.connectivity(2, 1)
     groups = fields.ids["neumann"]
     mask = np.isin(tags.values, groups)
     facets, group_of = tags.indices[mask], tags.values[mask]
     cells = f2c.array[f2c.offsets[facets]]  # an exterior facet has one cell
-    order = np.argsort(cells, kind="stable")
-    slot = np.empty(len(facets), dtype=np.int32)
-    slot[order] = np.arange(len(facets)) - np.searchsorted(cells[order], cells[order])
+    local_index = np.argmax(c2f.array.reshape(-1, 3)[cells] == facets[:, None], axis=1)
     k = np.searchsorted(groups, group_of)
-    return dmesh.meshtags(msh, 1, facets, (1 + 3 * k + slot).astype(np.int32))
+    return dmesh.meshtags(msh, 1, facets, (1 + 3 * k + local_index).astype(np.int32))
 
 
 def cell_geometry(msh):
@@ -148,11 +148,12 @@ def _neumann_edge_terms(fields, s, n, Qv, degree):
     if not groups:
         return eta, osc
     tags = neumann_slot_tags(fields)
-    slots = msh.comm.allreduce(int(np.max((tags.values - 1) % 3)) + 1 if len(tags.values) else 0, MPI.MAX)
+    used = msh.comm.allreduce(int(sum(1 << int(i) for i in np.unique((tags.values - 1) % 3))), MPI.BOR)
+    slots = [i for i in range(3) if used >> i & 1]
     ds = ufl.Measure("ds", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": degree})
     wv = ufl.TestFunction(Qv)
     zero = ufl.as_vector([0.0, 0.0])
-    for j in range(slots):
+    for j in slots:
         form = 0
         for k, group in enumerate(groups):
             g = fields.g.get(group, zero)
