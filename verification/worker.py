@@ -135,14 +135,13 @@ def local_efficiency(level):
     e = fields.u_exact - u
     dx = ufl.dx(metadata={"quadrature_degree": 8})
     err_K = cell_values((ufl.inner(e, e) + ufl.inner(ufl.grad(e), ufl.grad(e))) * w * dx, Q)
-    area = cell_values(w * ufl.dx, Q)
     err_patch = estimator.patch_sum(err_K, Q)  # Σ_{K' ⊂ ω_K} ‖e‖²_{1,K'}
     # the contact part of Remark 9's ẽ, per cell: Σ_{E ∈ E_K^C} h_E ‖σ_n(u − u_h)‖_E²
     n = ufl.FacetNormal(msh)
     s_n = ufl.dot(problem_module.sigma(e, fields.lmbda, fields.mu) * n, n)
     dC = fields.ds_of("contact")(metadata={"quadrature_degree": 16})
     contact_K = cell_values(ufl.FacetArea(msh) * s_n ** 2 * w * dC, Q)
-    n_owned = len(area)
+    n_owned = len(err_K)
     eta_K = level.estimate.fields["eta"].x.array[:n_owned]
     on_contact = level.estimate.fields["eta_4"].x.array[:n_owned] > 0
     touches = cell_values(w * dC, Q) > 0
