@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generate ``corner.msh`` (next to this script): the L-shaped body of the ``corner`` case.
+"""Generate ``nc_dolfinx/cases/corner.msh``: the L-shaped body of the ``corner`` case.
 
 Polygon (0,0), (2,0), (2,1), (1,1), (1,2), (0,2) with the re-entrant corner at (1,1), uniform size
 h = 0.25, linear triangles, msh 4.1 ASCII. Physical groups (names become boundary groups):
@@ -18,7 +18,8 @@ import gmsh
 from gmsh_common import generate_and_write, name_groups
 
 H = 0.25
-OUT = Path(__file__).resolve().with_suffix(".msh")
+# The mesh ships with the package, beside its problem file.
+OUT = Path(__file__).resolve().parent.parent / "nc_dolfinx" / "cases" / (Path(__file__).stem + ".msh")
 
 
 def main():

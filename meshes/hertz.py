@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generate ``hertz.msh`` (next to this script): the half-disc of the ``hertz`` case.
+"""Generate ``nc_dolfinx/cases/hertz.msh``: the half-disc of the ``hertz`` case.
 
 Disc of radius R = 1 centred at (0, 1), its part y <= 1: a flat top on y = 1 (x from -1 to 1) and the
 lower half arc through (0, 0), where a mesh vertex sits exactly. Linear triangles, msh 4.1 ASCII.
@@ -34,7 +34,8 @@ H_MAX = R / 8            # far from the contact
 H_MIN = R / 400          # along the contact arc near (0, 0)
 X_FINE = 0.12 * R        # ... up to this distance from (0, 0) (the contact half-width is ~0.08 R)
 GROWTH = 0.2             # size gradient away from that stretch of arc
-OUT = Path(__file__).resolve().with_suffix(".msh")
+# The mesh ships with the package, beside its problem file.
+OUT = Path(__file__).resolve().parent.parent / "nc_dolfinx" / "cases" / (Path(__file__).stem + ".msh")
 
 
 def main():

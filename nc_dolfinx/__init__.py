@@ -1,7 +1,51 @@
 """nc_dolfinx: frictionless normal compliance contact with a residual a posteriori estimator.
 
 Implements Fernández & Hild, "A posteriori error analysis for the normal compliance problem": the
-discrete problem (7) with P1 elements, the estimator of Definition 5 and adaptive refinement, on
-DOLFINx 0.5.
+discrete problem (7) with P1 elements in 2D (plane strain) and 3D, the estimator of Definition 5 and the
+SOLVE → ESTIMATE → MARK → REFINE loop, on DOLFINx 0.5, serial or under mpirun.
+
+    import nc_dolfinx as nc
+    problem = nc.load_problem("block", ["contact.m_n=2"])     # a built-in case, a .toml file, or
+    # problem = nc.Problem.from_dict({...})                   # the same keys in a dict
+    domain = nc.build_domain(problem)                         # or nc.rectangle / box / from_gmsh_model …
+    solution = nc.solve(problem, domain)                      # u_h of (7)
+    est = nc.estimate(solution.u, solution.fields)            # η_1 … η_4, η, ζ as DG0 fields
+    child = nc.refine(domain, nc.mark(est, theta=0.5))        # one adaptive step
+    result = nc.adapt(problem, on_level=print)                # the whole loop
+
+See docs/api.md and demos/.
 """
-__version__ = "0.1.0"
+__version__ = "0.2.0"
+
+from .adaptive import AdaptSettings, Level, Result, Solution, adapt, solve
+from .binding import Fields, bind, build_domain
+from .cases import case_names, case_path
+from .errors import InputError
+from .estimator import CELL_DEGREE, CONTACT_DEGREE, Estimate, assemble_cellwise, estimate, patch_sum
+from .forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure
+from .log import quiet_compilers, show_progress
+from .marking import mark
+from .meshes import Domain, from_gmsh, rectangle
+from .problem import Problem, load_problem
+from .physics import lame, normal_stress, sigma
+from .quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
+from .reference import hertz_line_contact, hertz_sphere_contact
+from .refinement import refine, transfer
+
+quiet_compilers()
+
+# Gauss degrees used by the package (the verification report quotes them)
+QUADRATURE_DEGREES = {"contact_form": CONTACT_QUADRATURE_DEGREE, "contact_est": CONTACT_DEGREE,
+                      "cell_est": CELL_DEGREE, "error": ERROR_DEGREE}
+
+__all__ = [
+    "Problem", "load_problem", "case_names", "case_path",
+    "Domain", "build_domain", "rectangle", "from_gmsh",
+    "Fields", "bind", "Solution", "solve",
+    "Estimate", "estimate", "mark", "refine", "transfer",
+    "AdaptSettings", "Level", "Result", "adapt",
+    "solution_quantities", "errors", "integrate", "contact_projection",
+    "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure",
+    "assemble_cellwise", "patch_sum", "hertz_line_contact", "hertz_sphere_contact",
+    "InputError", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES",
+]

@@ -1,26 +1,74 @@
-"""The SOLVE → ESTIMATE → MARK → REFINE loop.
+"""SOLVE on one mesh, and the SOLVE → ESTIMATE → MARK → REFINE loop.
 
-Each level solves (7) on the current mesh starting from the previous level's solution interpolated onto it
+:func:`solve` binds a problem to a mesh and solves (7) with the nonlinear solver. :func:`run` repeats
+it over levels: each level starts from the previous level's solution transferred to the refined mesh
 (nested iteration; level 0 starts from zero, with load stepping if asked), evaluates the estimator of
-Definition 5, records a history row, and refines: every cell (``uniform``) or the cells marked by
-Dörfler's bulk criterion or the maximum strategy (``adaptive``). It stops at the level count, the dof
-budget or the tolerance on η (absolute, or relative to η on level 0), whichever comes first.
+Definition 5, records a history row, calls ``on_level`` and refines every cell (``uniform``) or the cells
+marked by Dörfler's bulk criterion or the maximum strategy (``adaptive``). It stops at the level count,
+the dof budget or the tolerance on η (absolute, or relative to η on level 0), whichever comes first, and
+says which (``stop_reason``).
 """
+import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields as dataclass_fields
 
-import numpy as np
 from mpi4py import MPI
 
 from dolfinx import fem
 
-from . import estimator, forms, marking, quantities, refinement
-from .problem import bind, build_domain
-from .solver import NonlinearSolver, solver_options
+from . import estimator, forms, marking, quantities, refinement, schema
+from .binding import bind
+from .errors import InputError
+from .solver import NonlinearSolver, SolveStats, solver_options
+
+log = logging.getLogger("nc_dolfinx")
 
 
 @dataclass
+class Solution:
+    """The discrete solution u_h of (7) on one mesh, the problem's fields there, and how it was solved."""
+    u: fem.Function
+    fields: object
+    stats: SolveStats
+
+    @property
+    def domain(self):
+        return self.fields.domain
+
+
+def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, preconditioner_matrix=None):
+    """Solve (7) for ``problem`` on ``domain``.
+
+    ``initial``: a P1 displacement on this mesh or on its parent mesh (transferred exactly), the Newton
+    initial guess (default: zero). ``petsc_options``: PETSc options (no dash) over the problem's
+    ``[solver] petsc_options``. ``load_steps``, ``preconditioner_matrix``: over the problem's [solver].
+    Raises InputError if SNES does not converge.
+    """
+    settings = problem.values["solver"]
+    fields = bind(problem, domain)
+    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    if initial is None:
+        u = fem.Function(V)
+    elif initial.function_space.mesh is domain.mesh:
+        u = fem.Function(V)
+        u.x.array[:] = initial.x.array
+    else:
+        u = refinement.transfer(initial, V)
+    u.name = "displacement"
+    preset = "direct" if settings["preset"] == "auto" else settings["preset"]  # until the solver chooses
+    options = solver_options(preset, settings["petsc_options"], petsc_options)
+    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
+                             options, preconditioner_matrix or settings["preconditioner_matrix"])
+    try:
+        stats = solver.solve(load_steps or settings["load_steps"])
+    finally:
+        solver.destroy()
+    return Solution(u, fields, stats)
+
+
+@dataclass(frozen=True)
 class AdaptSettings:
+    """How the loop refines and when it stops (the problem's [adapt], see :meth:`from_problem`)."""
     refine: str = "none"        # none | uniform | adaptive
     levels: int = 1
     theta: float = 0.5
@@ -29,132 +77,163 @@ class AdaptSettings:
     tol: float = None           # stop when η <= tol
     rtol: float = None          # stop when η <= rtol * η(level 0)
 
-    @classmethod
-    def from_problem(cls, problem, **cli):
-        """Problem file ``[adapt]`` values, overridden by the command line (None = not given)."""
-        values = {k: v for k, v in problem.adapt.items() if k in cls.__dataclass_fields__}
-        values.update({k: v for k, v in cli.items() if v is not None})
-        s = cls(**values)
-        if s.refine == "none":
-            s.levels = 1
-        return s.validated()
+    RELEVANT = {"none": (), "uniform": ("levels", "max_dofs", "tol", "rtol"),
+                "adaptive": ("levels", "max_dofs", "tol", "rtol", "theta", "marking")}
 
-    def validated(self):
-        from .errors import InputError
-        for name, kind in (("levels", int), ("theta", float), ("max_dofs", int), ("tol", float), ("rtol", float)):
-            value = getattr(self, name)
+    def __post_init__(self):
+        for item in dataclass_fields(self):
+            value = getattr(self, item.name)
             if value is not None:
-                try:
-                    setattr(self, name, kind(value))
-                except (TypeError, ValueError):
-                    raise InputError(f"adapt.{name} must be a number, got {value!r}") from None
-        if self.refine not in ("none", "uniform", "adaptive"):
-            raise InputError(f"refine must be none, uniform or adaptive, got '{self.refine}'")
-        if self.marking not in ("doerfler", "maximum"):
-            raise InputError(f"marking must be doerfler or maximum, got '{self.marking}'")
-        if not 0 < self.theta <= 1:
-            raise InputError(f"theta must lie in (0, 1], got {self.theta}")
-        if self.levels < 1:
-            raise InputError(f"levels must be >= 1, got {self.levels}")
-        return self
+                schema.convert(f"adapt.{item.name}", value, item.name)
+
+    @classmethod
+    def from_problem(cls, problem, **explicit):
+        """The problem's [adapt] values, overridden by ``explicit`` ones (command line or API; None = not
+        given). An explicit setting that has no effect in the resulting mode (``theta`` with uniform
+        refinement, ``levels`` without refinement, one level of adaptive refinement) is refused; so is a
+        problem file that contradicts itself. File values that do not apply to a mode chosen explicitly
+        are ignored."""
+        explicit = {k: v for k, v in explicit.items() if v is not None}
+        unknown = set(explicit) - {f.name for f in dataclass_fields(cls)}
+        if unknown:
+            raise TypeError(f"unknown adapt setting(s) {sorted(unknown)}")
+        file = problem.values["adapt"]
+        file_given = {k.split(".", 1)[1] for k in problem.given if k.startswith("adapt.")}
+        refine = schema.convert("adapt.refine", explicit.get("refine", file["refine"]), "refine")
+        values = {"refine": refine}
+        for name in ("levels", "theta", "marking", "max_dofs", "tol", "rtol"):
+            relevant = name in cls.RELEVANT[refine]
+            if name in explicit:
+                if not relevant:
+                    raise InputError(f"{name} has no effect with refine = '{refine}'")
+                values[name] = schema.convert(f"adapt.{name}", explicit[name], name)
+            elif name in file_given and relevant:
+                values[name] = file[name]
+            elif name in file_given and "refine" not in explicit:
+                raise InputError(f"adapt.{name} has no effect with adapt.refine = '{refine}'")
+        if refine == "none":
+            values["levels"] = 1
+        else:
+            values.setdefault("levels", file["levels"])
+            if values["levels"] < 2:
+                raise InputError(f"refine = '{refine}' with {values['levels']} level refines nothing: "
+                                 "give levels >= 2 or refine = 'none'")
+        return cls(**values)
 
 
 @dataclass
 class Level:
-    """What one level leaves behind (the last one is written as the final solution)."""
-    fields: object
-    u: fem.Function
+    """What one level leaves behind; ``on_level`` receives it (the last one is the final solution)."""
+    number: int
+    solution: Solution
     estimate: estimator.Estimate
     row: dict = field(default_factory=dict)
+    marked: object = None          # local indices of the owned cells to refine (adaptive), else None
+    stop_reason: str = None        # set on the last level: levels | max_dofs | tol | rtol
+
+    @property
+    def u(self):
+        return self.solution.u
+
+    @property
+    def fields(self):
+        return self.solution.fields
 
 
-def dirichlet_bcs(V, fields):
-    tags = fields.domain.facet_tags
-    facets = tags.indices[np.isin(tags.values, fields.ids["dirichlet"])]
-    dofs = fem.locate_dofs_topological(V, 1, facets)
-    return [fem.dirichletbc(np.zeros(2, dtype=np.float64), dofs, V)]
+@dataclass
+class Result:
+    """The levels' history rows and the final level."""
+    history: list
+    final: Level
+
+    @property
+    def stop_reason(self):
+        return self.final.stop_reason
 
 
-def solve_level(problem, domain, options, initial=None, load_steps=1, preconditioner_matrix=None):
-    """SOLVE on one mesh: returns (fields, u, solver stats)."""
-    fields = bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
-    u = refinement.transfer(initial, V) if initial is not None else fem.Function(V)
-    u.name = "displacement"
-    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields), options,
-                             preconditioner_matrix or problem.preconditioner_matrix)
-    try:
-        stats = solver.solve(load_steps)
-    finally:
-        solver.destroy()
-    return fields, u, stats
+def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on_level=None):
+    """Run SOLVE → ESTIMATE → MARK → REFINE.
 
-
-def run(problem, comm, settings, cli_options=None, on_level=None, progress=None):
-    """Run the loop; ``on_level(level)`` is called after each level (output), ``progress(text)`` prints."""
-    options = solver_options(problem.preset, problem.petsc_options, cli_options)
+    ``settings``: AdaptSettings (default: the problem's [adapt]); ``domain``: the level-0 mesh (default:
+    built from the problem's [mesh] on ``comm``, COMM_WORLD by default); ``on_level(level)`` is called
+    after each level (before refinement). Progress goes to the ``nc_dolfinx`` logger (INFO, rank 0).
+    """
+    settings = settings or AdaptSettings.from_problem(problem)
     t0 = time.perf_counter()
-    domain = build_domain(problem, comm)
+    if domain is None:
+        from .binding import build_domain
+        domain = build_domain(problem, comm or MPI.COMM_WORLD)
     times = {"mesh": time.perf_counter() - t0}  # then, on later levels, the refinement that made the mesh
     history, previous, eta0 = [], None, None
-    pc_matrix = problem.preconditioner_matrix  # "auto" turns into "jacobian" for good once it switches
+    pc_matrix = None  # "auto" turns into "jacobian" for good once it switches
     for number in range(settings.levels):
         t = time.perf_counter()
-        fields, u, stats = solve_level(problem, domain, options, previous,
-                                       problem.load_steps if number == 0 else 1, pc_matrix)
-        pc_matrix = stats.preconditioner_matrix
+        solution = solve(problem, domain, previous, petsc_options,
+                         None if number == 0 else 1, pc_matrix)
+        pc_matrix = solution.stats.preconditioner_matrix
         times["solve"] = time.perf_counter() - t
         t = time.perf_counter()
-        est = estimator.estimate(u, fields, **_estimator_options(problem))
+        est = estimator.estimate(solution.u, solution.fields, **estimator_options(problem))
         times["estimate"] = time.perf_counter() - t
         eta0 = est.totals["eta"] if eta0 is None else eta0
-        dofs = 2 * domain.num_vertices()
-        row = {"level": number, "dofs": dofs, "cells": domain.num_cells(), **est.totals,
-               "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
-               "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix}
-        row.update(quantities.solution_quantities(u, fields))
-        row.update(quantities.errors(u, fields))
-        if "h1_error" in row:
-            row["effectivity"] = est.totals["eta"] / row["h1_error"]
-            row["effectivity_augmented"] = est.totals["eta"] / row["augmented_error"]
-        last = (number == settings.levels - 1
-                or (settings.max_dofs is not None and dofs >= settings.max_dofs)
-                or (settings.tol is not None and est.totals["eta"] <= settings.tol)
-                or (settings.rtol is not None and est.totals["eta"] <= settings.rtol * eta0))
+        row = _row(number, domain, solution, est)
+        stop = _stop_reason(settings, number, row["dofs"], est.totals["eta"], eta0)
         marked = None
-        if not last and settings.refine == "adaptive":
+        if stop is None and settings.refine == "adaptive":
             t = time.perf_counter()
-            marked = marking.mark(est.squares, comm, settings.theta, settings.marking)
+            marked = marking.mark(est, settings.theta, settings.marking)
             times["mark"] = time.perf_counter() - t
-            row["marked"] = comm.allreduce(len(marked), MPI.SUM)
-        level = Level(fields, u, est, row)
+            row["marked"] = domain.comm.allreduce(len(marked), MPI.SUM)
+        row.update({f"time_{k}": v for k, v in times.items()})
+        level = Level(number, solution, est, row, marked, stop)
         if on_level:
             t = time.perf_counter()
             on_level(level)
-            times["output"] = time.perf_counter() - t
-        row.update({f"time_{k}": v for k, v in times.items()})
+            row["time_output"] = time.perf_counter() - t
         history.append(row)
-        if progress:
-            progress(_progress_line(row))
-        if last:
-            break
+        if domain.comm.rank == 0:
+            log.info(progress_line(row))
+        if stop:
+            return Result(history, level)
         t = time.perf_counter()
         domain = refinement.refine(domain, marked)  # marked is None for uniform refinement
         times = {"refine": time.perf_counter() - t}
-        previous = u
-    return level, history
+        previous = solution.u
 
 
-def _estimator_options(problem):
-    opts = {}
-    if "contact_quadrature_degree" in problem.estimator:
-        opts["contact_degree"] = int(problem.estimator["contact_quadrature_degree"])
-    if "cell_quadrature_degree" in problem.estimator:
-        opts["cell_degree"] = int(problem.estimator["cell_quadrature_degree"])
-    return opts
+def _row(number, domain, solution, est):
+    stats, dim = solution.stats, domain.mesh.geometry.dim
+    row = {"level": number, "dofs": dim * domain.num_vertices(), "cells": domain.num_cells(), **est.totals,
+           "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
+           "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix}
+    row.update(quantities.solution_quantities(solution.u, solution.fields))
+    row.update(quantities.errors(solution.u, solution.fields))
+    if "h1_error" in row:
+        row["effectivity"] = est.totals["eta"] / row["h1_error"]
+        row["effectivity_augmented"] = est.totals["eta"] / row["augmented_error"]
+    return row
 
 
-def _progress_line(row):
+def _stop_reason(settings, number, dofs, eta, eta0):
+    if number == settings.levels - 1:
+        return "levels"
+    if settings.max_dofs is not None and dofs >= settings.max_dofs:
+        return "max_dofs"
+    if settings.tol is not None and eta <= settings.tol:
+        return "tol"
+    if settings.rtol is not None and eta <= settings.rtol * eta0:
+        return "rtol"
+    return None
+
+
+def estimator_options(problem):
+    """Quadrature degrees of the estimator given in the problem's [estimator] (others: the defaults)."""
+    table = problem.values["estimator"]
+    opts = {"contact_degree": table["contact_quadrature_degree"], "cell_degree": table["cell_quadrature_degree"]}
+    return {k: v for k, v in opts.items() if v is not None}
+
+
+def progress_line(row):
     text = (f"level {row['level']:2d}: {row['dofs']:8d} dofs, {row['newton_iterations']:2d} Newton "
             f"({row['linear_iterations']} linear) its, solve {row['time_solve']:.2f} s, "
             f"eta = {row['eta']:.4e}")

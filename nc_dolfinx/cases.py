@@ -13,15 +13,29 @@ def available():
     return {p.stem: read_toml(p).get("title", p.stem) for p in sorted(CASES_DIR.glob("*.toml"))}
 
 
+def case_names():
+    """The names of the built-in cases."""
+    return sorted(p.stem for p in CASES_DIR.glob("*.toml"))
+
+
+def case_path(name):
+    """The problem file of a built-in case."""
+    return resolve(name) if (CASES_DIR / f"{name}.toml").is_file() else _unknown(name)
+
+
 def resolve(case_or_file):
     """Path of a built-in case name or of a user's problem file."""
     path = Path(case_or_file)
-    if path.suffix == ".toml" or path.exists():
+    if path.suffix == ".toml" or path.exists() or len(path.parts) > 1:
         if not path.is_file():
             raise InputError(f"problem file '{case_or_file}' not found")
         return path
     builtin = CASES_DIR / f"{case_or_file}.toml"
-    if not builtin.is_file():
-        raise InputError(f"unknown case '{case_or_file}' (built-in cases: {', '.join(available())}; "
-                         "or give a .toml problem file)")
-    return builtin
+    return builtin if builtin.is_file() else _unknown(case_or_file)
+
+
+def _unknown(name):
+    import difflib
+    close = difflib.get_close_matches(str(name), case_names(), n=1)
+    raise InputError(f"unknown case '{name}'" + (f" (did you mean '{close[0]}'?)" if close else "")
+                     + f" (built-in cases: {', '.join(case_names())}; or give a .toml problem file)")

@@ -6,6 +6,7 @@ problem file. Bad input ends the run with one line ``nc_dolfinx: error: …`` an
 """
 import argparse
 import dataclasses
+import difflib
 import logging
 import time
 
@@ -38,7 +39,7 @@ def parser():
     p.add_argument("--max-dofs", type=int, default=None, help="stop once a level has this many dofs")
     p.add_argument("--tol", type=float, default=None, help="stop once eta <= TOL")
     p.add_argument("--rtol", type=float, default=None, help="stop once eta <= RTOL * eta(level 0)")
-    p.add_argument("--preset", choices=("direct", "iterative"), default=None,
+    p.add_argument("--preset", choices=("auto", "direct", "iterative"), default=None,
                    help="linear solver preset for CG on the Jacobian: preconditioned by a MUMPS Cholesky "
                         "factorisation (direct) or GAMG (iterative) of the bulk stiffness K")
     p.add_argument("--load-steps", type=int, default=None, help="increments of the loads on level 0")
@@ -52,17 +53,25 @@ def parser():
     return p
 
 
-def petsc_options(tokens):
-    """['-ksp_type', 'cg', '-snes_monitor'] -> {'ksp_type': 'cg', 'snes_monitor': None}."""
+def petsc_options(tokens, ours=()):
+    """['-ksp_type', 'cg', '-snes_monitor'] -> {'ksp_type': 'cg', 'snes_monitor': None}.
+
+    A single-dash spelling of one of our own options (``-levels 3``) is refused with a suggestion, as is
+    an unknown ``--option``: neither may silently become a PETSc option."""
     options, i = {}, 0
     while i < len(tokens):
         key = tokens[i]
-        if not key.startswith("-") or key.startswith("--") or len(key) < 2:
+        if not key.startswith("-") or len(key) < 2:
             raise InputError(f"unexpected argument '{key}' (PETSc options look like -ksp_type cg)")
+        name = key.lstrip("-")
+        if key.startswith("--") or name.replace("_", "-") in ours:
+            close = difflib.get_close_matches("--" + name.replace("_", "-"), [f"--{o}" for o in ours], n=1)
+            hint = f" (did you mean {close[0]}?)" if close else " (see --help)"
+            raise InputError(f"unknown option '{key}'{hint}")
         value = None
         if i + 1 < len(tokens) and (not tokens[i + 1].startswith("-") or _is_number(tokens[i + 1])):
             value, i = tokens[i + 1], i + 1
-        options[key[1:]] = value
+        options[name] = value
         i += 1
     return options
 
@@ -84,13 +93,13 @@ def main(argv=None):
         say(f"nc_dolfinx: error: {err}")
         return EXIT_INPUT
     try:
-        _quiet_jit_logging()
         if args.list:
             from . import cases
             for name, title in cases.available().items():
                 say(f"{name:14s} {title}")
             return 0
-        cli_options = petsc_options(rest)
+        ours = [a.option_strings[-1].lstrip('-') for a in parser()._actions if a.option_strings]
+        cli_options = petsc_options(rest, ours)
         for case in args.cases or [_default_case()]:
             run_case(case, args, cli_options, comm, say)
         return 0
@@ -109,29 +118,26 @@ def _default_case():
     return DEFAULT_CASE
 
 
-def _quiet_jit_logging():
-    # FFCx/setuptools log every compilation at INFO on the root logger.
-    # setuptools resets the root level on every compilation, so filter instead of setting a level.
-    logging.getLogger().addFilter(lambda record: record.levelno >= logging.WARNING)
-
-
 def run_case(case, args, cli_options, comm, say):
     from pathlib import Path
 
-    from . import adaptive, cases, output, problem as problem_module, reference
+    from . import adaptive, cases, output, problem as problem_module, reference, schema
+    from .log import show_progress
     path = cases.resolve(case)
     problem = problem_module.load_problem(path, args.set)
-    if args.preset:
-        problem.preset = args.preset
-    if args.load_steps is not None:
-        if args.load_steps < 1:
-            raise InputError(f"--load-steps must be >= 1, got {args.load_steps}")
-        problem.load_steps = args.load_steps
+    solver_changes = {key: schema.convert(key, value, option) for key, value, option in
+                      (("solver.preset", args.preset, "--preset"), ("solver.load_steps", args.load_steps, "--load-steps"))
+                      if value is not None}
+    if solver_changes:
+        problem = problem.replace(solver_changes)
     settings = adaptive.AdaptSettings.from_problem(
         problem, refine=args.refine, levels=args.levels, theta=args.theta, marking=args.marking,
         max_dofs=args.max_dofs, tol=args.tol, rtol=args.rtol)
+    if args.compare_uniform and settings.refine != "adaptive":
+        raise InputError(f"--compare-uniform compares with adaptive refinement, but refine = '{settings.refine}'")
     multiple = len(args.cases) > 1
     out = Path(args.out) / problem.name if (args.out and multiple) else Path(args.out or f"results/{problem.name}")
+    handler = None if args.quiet else show_progress(comm=comm)
     say(f"{problem.name}: {problem.title} [{comm.size} rank(s), refine={settings.refine}, "
         f"levels={settings.levels}] -> {out}")
     writer = output.ResultWriter(out, comm)
@@ -141,15 +147,16 @@ def run_case(case, args, cli_options, comm, say):
             writer.write_functions(f"levels/level_{level.row['level']:02d}.xdmf", level.u.function_space.mesh,
                                    [level.u, *level.estimate.fields.values()])
 
-        final, history = adaptive.run(problem, comm, settings, cli_options, on_level=write_level,
-                                      progress=None if args.quiet else say)
+        result = adaptive.adapt(problem, settings, comm=comm, petsc_options=cli_options, on_level=write_level)
+        final, history = result.final, result.history
         mesh = final.u.function_space.mesh
         writer.write_functions("solution.xdmf", mesh, [final.u, *output.postprocess_fields(final.u, final.fields),
                                                         *final.estimate.fields.values()])
         comparisons = reference.compare(problem, history[-1])
         summary = {
             "problem": problem.name, "title": problem.title, "source": str(path), "ranks": comm.size,
-            "refine": settings.refine, "levels": len(history), "m_n": problem.m_n,
+            "refine": settings.refine, "levels": len(history), "m_n": problem["contact.m_n"],
+            "stop_reason": result.stop_reason, "notes": final.fields.notes, "resolved": problem.to_dict(),
             **history[-1],
             "time_total": time.perf_counter() - start,
             "reference": [{"quantity": q, "computed": c, "reference": r} for q, c, r in comparisons],
@@ -165,8 +172,7 @@ def run_case(case, args, cli_options, comm, say):
                                                        history[-1]["dofs"]))
             if not args.quiet:
                 say("  uniform refinement for comparison:")
-            _, histories["uniform"] = adaptive.run(problem, comm, uniform, cli_options,
-                                                   progress=None if args.quiet else say)
+            histories["uniform"] = adaptive.adapt(problem, uniform, comm=comm, petsc_options=cli_options).history
             writer.write_json("history_uniform.json", histories["uniform"])
             writer.write_csv("history_uniform.csv", histories["uniform"])
         if comm.rank == 0:
@@ -176,6 +182,10 @@ def run_case(case, args, cli_options, comm, say):
     except BaseException:
         writer.abort()
         raise
+    finally:
+        if handler:
+            from .log import logger
+            logger.removeHandler(handler)
     for quantity, computed, ref in comparisons:
         say(f"  {quantity}: computed {computed:.5g}, reference {ref:.5g} "
             f"({100 * (computed - ref) / ref:+.2f} %)")

@@ -1,21 +1,24 @@
-"""The weak form (7) of the normal compliance problem, written once in UFL.
+"""The weak form (7) of the normal compliance problem, written once in UFL for 2D and 3D.
 
     a(u_h, v) + j_n(u_h, v) = L(v)   for all v in V_h,                                    (7)
     a(u, v)   = ∫_Ω σ(u) : ε(v),
     j_n(u, v) = ∫_Γ_C c_n (u_n − g_0)_+^{m_n} v_n,        (paper §2, with the optional gap g_0)
     L(v)      = ∫_Ω f·v + ∫_Γ_N g·v.
 
-The Jacobian is the exact Gateaux derivative of the residual; for m_n = 1 the derivative of (·)_+ is the
-Heaviside of the conditional, i.e. the generalized (semismooth Newton) Jacobian.
+(7) is the optimality condition of the convex, C¹ energy
+    Π(u) = ½ a(u, u) − L(u) + ∫_Γ_C c_n/(m_n + 1) (u_n − g_0)_+^{m_n+1},
+which the solver gives SNES as its objective. The Jacobian is the exact Gateaux derivative of the
+residual; for m_n = 1 the derivative of (·)_+ is the Heaviside of the conditional, i.e. the generalized
+(semismooth Newton) Jacobian.
 """
 from dataclasses import dataclass
 
 import ufl
 
+from . import physics
 from .expressions import positive_part
-from .problem import sigma
 
-# Quadrature degree on Γ_C: the integrands contain (u_n − g_0)_+ whose kink may lie inside an edge.
+# Quadrature degree on Γ_C: the integrands contain (u_n − g_0)_+ whose kink may lie inside a facet.
 CONTACT_QUADRATURE_DEGREE = 8
 
 
@@ -23,10 +26,15 @@ def normal_displacement(u, n):
     return ufl.dot(u, n)
 
 
+def penetration(u, fields, n=None):
+    """(u_n − g_0)_+ on Γ_C."""
+    n = ufl.FacetNormal(fields.domain.mesh) if n is None else n
+    return positive_part(normal_displacement(u, n) - fields.gap)
+
+
 def contact_pressure(u, fields, n=None):
     """p = c_n (u_n − g_0)_+^{m_n} = −σ_n(u) on Γ_C (law (4))."""
-    n = ufl.FacetNormal(fields.domain.mesh) if n is None else n
-    return fields.c_n * positive_part(normal_displacement(u, n) - fields.gap) ** fields.m_n
+    return fields.c_n * penetration(u, fields, n) ** fields.m_n
 
 
 def contact_measure(fields, degree=CONTACT_QUADRATURE_DEGREE):
@@ -41,29 +49,25 @@ class NonlinearForms:
     L: ufl.Form            # L(v) at load factor 1
     j_n: ufl.Form          # j_n(u, v)
     j_n_jacobian: ufl.Form  # the Gateaux derivative of j_n(u, v) in u
+    contact_energy: ufl.Form  # ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1}: Π(u) = ½uᵀKu − Lᵀu + this
 
 
 def normal_compliance_forms(u, fields):
-    """The forms of (7) on the space of ``u``: a, L, j_n and its Jacobian."""
+    """The forms of (7) on the space of ``u``: a, L, j_n, its Jacobian and the contact part of Π."""
     V = u.function_space
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
     n = ufl.FacetNormal(fields.domain.mesh)
-    a = ufl.inner(sigma(du, fields.lmbda, fields.mu), ufl.sym(ufl.grad(v))) * ufl.dx
-    j_n = contact_pressure(u, fields, n) * normal_displacement(v, n) * contact_measure(fields)
+    a = ufl.inner(fields.sigma(du), physics.strain(v)) * ufl.dx
+    dC = contact_measure(fields)
+    j_n = contact_pressure(u, fields, n) * normal_displacement(v, n) * dC
     L = ufl.inner(fields.f, v) * ufl.dx
     for group_id, g in fields.g.items():
         L += ufl.inner(g, v) * fields.ds(group_id)
-    return NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du))
+    m = fields.m_n
+    contact_energy = fields.c_n / (m + 1) * penetration(u, fields, n) ** (m + 1) * dC
+    return NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
 
 
 def elastic_energy(u, fields):
     """½ a(u, u)."""
-    return 0.5 * ufl.inner(sigma(u, fields.lmbda, fields.mu), ufl.sym(ufl.grad(u))) * ufl.dx
-
-
-def von_mises(u, fields):
-    """Plane strain von Mises stress, with σ_zz = λ tr ε(u)."""
-    s = sigma(u, fields.lmbda, fields.mu)
-    s_zz = fields.lmbda * ufl.tr(ufl.sym(ufl.grad(u)))
-    return ufl.sqrt(0.5 * ((s[0, 0] - s[1, 1]) ** 2 + (s[1, 1] - s_zz) ** 2 + (s_zz - s[0, 0]) ** 2)
-                    + 3 * s[0, 1] ** 2)
+    return 0.5 * ufl.inner(fields.sigma(u), physics.strain(u)) * ufl.dx

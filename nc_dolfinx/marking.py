@@ -28,13 +28,16 @@ def doerfler_threshold(eta_squared, theta):
     return values[min(k, len(values) - 1)]
 
 
-def mark(eta_squared_owned, comm, theta=0.5, strategy="doerfler"):
-    """Local indices of the owned cells to refine.
+def mark(indicators, theta=0.5, strategy="doerfler", comm=None):
+    """Local indices of the owned cells to refine, from an :class:`~nc_dolfinx.Estimate` (or an array of
+    the owned cells' η_K² with its communicator ``comm``).
 
     doerfler: a minimal set with Σ_marked η_K² ≥ θ η² (Dörfler's bulk criterion);
     maximum:  the cells with η_K ≥ θ max η_K.
     """
-    local = np.asarray(eta_squared_owned, dtype=float)
+    if hasattr(indicators, "squares"):
+        indicators, comm = indicators.squares, indicators.comm
+    local = np.asarray(indicators, dtype=float)
     if strategy == "doerfler":
         everything = np.concatenate(comm.allgather(local))
         threshold = doerfler_threshold(everything, theta)

@@ -24,7 +24,7 @@ import numpy as np
 
 from dolfinx import fem, io
 
-from . import forms
+from . import forms, physics
 from .quantities import contact_projection
 
 
@@ -104,10 +104,10 @@ def _jsonable(value):
 def postprocess_fields(u, fields):
     """Stress, von Mises (DG0) and the nodal contact pressure (P1) for output."""
     msh = u.function_space.mesh
-    T = fem.TensorFunctionSpace(msh, ("DG", 0))
+    T = fem.TensorFunctionSpace(msh, ("DG", 0), shape=(3, 3))  # plane strain: σ_zz = λ tr ε ≠ 0
     Q = fem.FunctionSpace(msh, ("DG", 0))
-    stress = _interpolate(T, forms.sigma(u, fields.lmbda, fields.mu), "stress")
-    vm = _interpolate(Q, forms.von_mises(u, fields), "von_mises")
+    stress = _interpolate(T, physics.stress_3x3(u, fields.lmbda, fields.mu), "stress")
+    vm = _interpolate(Q, physics.von_mises(u, fields.lmbda, fields.mu), "von_mises")
     pressure = contact_projection(forms.contact_pressure(u, fields), fields, "contact_pressure")
     return [stress, vm, pressure]
 

@@ -9,8 +9,7 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
 from . import forms
-from .expressions import positive_part
-from .problem import sigma
+from . import physics
 
 ERROR_DEGREE = 8
 
@@ -25,8 +24,8 @@ def solution_quantities(u, fields):
     n = ufl.FacetNormal(fields.domain.mesh)
     p = forms.contact_pressure(u, fields, n)
     dC = forms.contact_measure(fields)
-    force = [-integrate(p * n[i] * dC, comm) for i in range(2)]
-    penetration = contact_projection(positive_part(ufl.dot(u, n) - fields.gap), fields, "penetration")
+    force = [-integrate(p * n[i] * dC, comm) for i in range(fields.dim)]
+    penetration = contact_projection(forms.penetration(u, fields, n), fields, "penetration")
     n_owned = penetration.function_space.dofmap.index_map.size_local
     max_penetration = comm.allreduce(float(np.max(penetration.x.array[:n_owned], initial=0.0)), MPI.MAX)
     pressure = contact_projection(p, fields, "contact_pressure")
@@ -36,7 +35,9 @@ def solution_quantities(u, fields):
         "elastic_energy": integrate(forms.elastic_energy(u, fields), comm),
         "contact_resultant": integrate(p * dC, comm),
         "contact_force": force,
-        "contact_length": integrate(ufl.conditional(ufl.gt(p, 0), 1.0, 0.0) * dC, comm),
+        # the measure of {p > 0} on Γ_C: a length in 2D, an area in 3D
+        "contact_length" if fields.dim == 2 else "contact_area":
+            integrate(ufl.conditional(ufl.gt(p, 0), 1.0, 0.0) * dC, comm),
         "max_penetration": max_penetration,
     }
 
@@ -69,7 +70,7 @@ def errors(u, fields):
     l2 = np.sqrt(integrate(ufl.inner(e, e) * dx, comm))
     h1 = np.sqrt(l2 ** 2 + integrate(ufl.inner(ufl.grad(e), ufl.grad(e)) * dx, comm))
     n = ufl.FacetNormal(fields.domain.mesh)
-    sigma_n_err = ufl.dot(sigma(e, fields.lmbda, fields.mu) * n, n)
+    sigma_n_err = physics.normal_stress(fields.sigma(e), n)
     h_E = ufl.FacetArea(fields.domain.mesh)
     contact = np.sqrt(integrate(h_E * sigma_n_err ** 2 * forms.contact_measure(fields, 16), comm))
     return {"l2_error": l2, "h1_error": h1, "augmented_error": h1 + contact}

@@ -23,9 +23,9 @@ def mpirun_prefix(nprocs):
     return cmd
 
 
-def run(args, nprocs=1, cwd=None, timeout=900):
+def run(args, nprocs=1, cwd=None, timeout=900, env=None):
     """Run ``python3 ARGS`` (a script and its arguments) on ``nprocs`` ranks; returns CompletedProcess."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1", **(env or {}))
     return subprocess.run(mpirun_prefix(nprocs) + [PYTHON, *map(str, args)], cwd=cwd or ROOT, env=env,
                           capture_output=True, text=True, timeout=timeout)
 

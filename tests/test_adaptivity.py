@@ -7,14 +7,16 @@ from conftest import ROOT
 import dolfinx
 from dolfinx import mesh as dmesh
 
-from nc_dolfinx import adaptive, problem as problem_module, reference
+import nc_dolfinx as nc
+from nc_dolfinx import reference
 
 CASES = ROOT / "nc_dolfinx" / "cases"
 
 
 def run(case, overrides=(), **settings):
-    problem = problem_module.load_problem(CASES / f"{case}.toml", list(overrides))
-    final, history = adaptive.run(problem, MPI.COMM_WORLD, adaptive.AdaptSettings.from_problem(problem, **settings))
+    problem = nc.load_problem(case, list(overrides))
+    result = nc.adapt(problem, nc.AdaptSettings.from_problem(problem, **settings))
+    final, history = result.final, result.history
     return problem, final, history
 
 

@@ -145,6 +145,7 @@ def gmsh_problem(folder, mesh, dirichlet="clamp", contact="base"):
         f = ["0", "-1"]
         [contact]
         c_n = 100.0
+        m_n = 1.0
         """))
     return path
 
@@ -164,8 +165,8 @@ CASES = [
     ("missing_problem_file", lambda m, t: [t / "missing.toml"], "not found"),
     ("missing_mesh_file", lambda m, t: [gmsh_problem(m, "missing")], "missing.msh' not found"),
     ("malformed_toml", lambda m, t: [block_with(t, "\n[contact\nm_n = 2\n")], "malformed TOML"),
-    ("unknown_section", lambda m, t: [block_with(t, "\n[contacts]\nm_n = 2\n")], "unknown section(s) ['contacts']"),
-    ("unknown_section_set", lambda m, t: ["block", *FAST, "--set", "solverr.x=1"], "['solverr']"),
+    ("unknown_section", lambda m, t: [block_with(t, "\n[contacts]\nm_n = 2\n")], "unknown section '[contacts]' (did you mean '[contact]'?)"),
+    ("unknown_section_set", lambda m, t: ["block", *FAST, "--set", "solverr.x=1"], "unknown section '[solverr]' (did you mean '[solver]'?)"),
     ("not_a_mesh_file", lambda m, t: [gmsh_problem(m, "garbage")], "cannot read mesh file"),
     # boundary groups
     ("unknown_group_rectangle", lambda m, t: ["block", *FAST, "--set", 'mesh.dirichlet=["nosuch"]'],
@@ -190,7 +191,7 @@ CASES = [
     ("duplicate_detached_curve", lambda m, t: [gmsh_problem(m, "duplicate")], "not edges of the cells"),
     ("empty_mesh", lambda m, t: [gmsh_problem(m, "empty")], "no mesh elements"),
     ("rectangle_cells_not_a_list", lambda m, t: ["block", *FAST, "--set", "mesh.cells=3"],
-     "mesh.cells must be two positive integers"),
+     "mesh.cells must be 2 (rectangle) or 3 (box) positive integers"),
     ("rectangle_corners_malformed", lambda m, t: ["block", *FAST, "--set", "mesh.rectangle=5"],
      "mesh.rectangle must be"),
     # contact law
@@ -229,7 +230,7 @@ CASES = [
     ("set_into_a_value", lambda m, t: ["block", *FAST, "--set", "mesh.rectangle.x=1"],
      "'rectangle' is not a table"),
     ("unknown_cli_argument", lambda m, t: ["block", *FAST, "--no-such-option"],
-     "unexpected argument '--no-such-option'"),
+     "unknown option '--no-such-option'"),
     ("bad_option_value", lambda m, t: ["block", *FAST, "--levels", "many"], "argument --levels"),
     ("bad_option_choice", lambda m, t: ["block", "--refine", "sideways"], "argument --refine"),
     ("bad_load_steps_option", lambda m, t: ["block", *FAST, "--load-steps", "0"], "--load-steps must be >= 1"),

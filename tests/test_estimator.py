@@ -25,7 +25,8 @@ from mpi4py import MPI
 from conftest import ROOT, run
 from dolfinx import fem, mesh as dmesh
 from nc_dolfinx.estimator import CONTACT_DEGREE, NAMES, estimate
-from nc_dolfinx.problem import bind, build_domain, lame, problem_from_data
+from nc_dolfinx import Problem, bind, build_domain
+from nc_dolfinx.physics import lame
 
 RTOL = 1e-12
 NG_EDGE = 40
@@ -261,7 +262,7 @@ def setup_case(name, tmp_path):
         points, tris = B_POINTS, B_TRIS
         side = lambda p, q: B_GROUPS.get(tuple(sorted(int(np.flatnonzero((B_POINTS == v).all(axis=1))[0])
                                                       for v in (p, q))))
-    problem = problem_from_data(data, f"case {name}")
+    problem = Problem.from_dict(data, f"case {name}")
     domain = build_domain(problem, MPI.COMM_WORLD)
     fields = bind(problem, domain)
     V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
@@ -488,7 +489,7 @@ def test_zeta_patch_sum_brute_force():
     points, tris, side = rectangle_triangles(data["mesh"]["rectangle"], data["mesh"]["cells"],
                                              data["mesh"]["diagonal"])
     spec = spec_of(data)
-    problem = problem_from_data(data, "zeta")
+    problem = Problem.from_dict(data, "zeta")
     domain = build_domain(problem, MPI.COMM_WORLD)
     fields = bind(problem, domain)
     u = fem.Function(fem.VectorFunctionSpace(domain.mesh, ("CG", 1)))
@@ -512,16 +513,13 @@ import json
 import numpy as np
 from mpi4py import MPI
 from dolfinx import mesh as dmesh
-from nc_dolfinx.adaptive import solve_level
-from nc_dolfinx.estimator import estimate
-from nc_dolfinx.problem import build_domain, load_problem
-from nc_dolfinx.solver import solver_options
+import nc_dolfinx as nc
 
 comm = MPI.COMM_WORLD
-problem = load_problem("{case}", overrides=["mesh.cells=[6, 6]"])
-domain = build_domain(problem, comm)
-fields, u, stats = solve_level(problem, domain, solver_options(problem.preset))
-est = estimate(u, fields)
+problem = nc.load_problem("{case}", overrides=["mesh.cells=[6, 6]"])
+domain = nc.build_domain(problem, comm)
+solution = nc.solve(problem, domain)
+est = nc.estimate(solution.u, solution.fields)
 msh = domain.mesh
 n = msh.topology.index_map(2).size_local
 mid = dmesh.compute_midpoints(msh, 2, np.arange(n, dtype=np.int32))[:, :2]

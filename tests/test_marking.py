@@ -16,7 +16,7 @@ def brute_force_minimal_size(values, theta):
 @pytest.mark.parametrize("seed", range(5))
 def test_doerfler_set_is_minimal_and_satisfies_the_bulk_criterion(theta, seed):
     values = np.random.default_rng(seed).lognormal(size=200) ** 2  # η_K², distinct
-    marked = mark(values, MPI.COMM_SELF, theta, "doerfler")
+    marked = mark(values, theta, "doerfler", MPI.COMM_SELF)
     assert values[marked].sum() >= theta * values.sum() * (1 - 1e-12)
     assert len(marked) == brute_force_minimal_size(values, theta)
     # the marked cells are the largest ones
@@ -25,21 +25,21 @@ def test_doerfler_set_is_minimal_and_satisfies_the_bulk_criterion(theta, seed):
 
 def test_ties_at_the_threshold_are_marked_together():
     values = np.array([4.0, 1.0, 1.0, 1.0, 1.0, 0.5])
-    marked = mark(values, MPI.COMM_SELF, 0.5, "doerfler")  # 4 + 1 reaches half of 8.5; three 1's tie
+    marked = mark(values, 0.5, "doerfler", MPI.COMM_SELF)  # 4 + 1 reaches half of 8.5; three 1's tie
     assert sorted(marked) == [0, 1, 2, 3, 4]
     # values equal up to round-off are ties too, so the set does not depend on the partition
     noisy = values * (1 + 1e-13 * np.array([0, 1, -1, 2, -2, 0]))
-    assert sorted(mark(noisy, MPI.COMM_SELF, 0.5, "doerfler")) == [0, 1, 2, 3, 4]
+    assert sorted(mark(noisy, 0.5, "doerfler", MPI.COMM_SELF)) == [0, 1, 2, 3, 4]
 
 
 def test_threshold_of_zero_indicators_marks_nothing():
     assert doerfler_threshold(np.zeros(5), 0.5) == np.inf
-    assert len(mark(np.zeros(5), MPI.COMM_SELF, 0.5)) == 0
+    assert len(mark(np.zeros(5), 0.5, comm=MPI.COMM_SELF)) == 0
 
 
 @pytest.mark.parametrize("theta", [0.25, 0.5, 0.9])
 def test_maximum_strategy(theta):
     values = np.random.default_rng(1).uniform(size=100)  # η_K²
-    marked = mark(values, MPI.COMM_SELF, theta, "maximum")
+    marked = mark(values, theta, "maximum", MPI.COMM_SELF)
     expected = np.flatnonzero(np.sqrt(values) >= theta * np.sqrt(values.max()))
     assert np.array_equal(np.sort(marked), expected)

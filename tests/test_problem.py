@@ -1,21 +1,44 @@
-"""Problem files: expressions, overrides, and how tractions reach the boundary groups."""
+"""Problem files and the schema: strict keys, required physics, overrides, expressions, tractions."""
 import numpy as np
 import pytest
 from mpi4py import MPI
 
 from conftest import ROOT
-from nc_dolfinx import adaptive, problem as problem_module
+import nc_dolfinx as nc
+from nc_dolfinx import schema
 from nc_dolfinx.errors import InputError
 from nc_dolfinx.expressions import to_float
-from nc_dolfinx.solver import solver_options
+from nc_dolfinx.problem import apply_overrides, read_toml
 
 BLOCK = ROOT / "nc_dolfinx" / "cases" / "block.toml"
+MINIMAL = {
+    "mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [4, 4], "dirichlet": ["left"], "contact": ["bottom"]},
+    "material": {"E": 1.0, "nu": 0.3},
+    "loads": {"f": ["0", "-1"]},
+    "contact": {"c_n": 1.0, "m_n": 1.0},
+}
+
+
+def with_(dotted, value, base=MINIMAL):
+    import copy
+    data = copy.deepcopy(base)
+    *path, last = dotted.split(".")
+    table = data
+    for part in path:
+        table = table.setdefault(part, {})
+    if value is DELETE:
+        del table[last]
+    else:
+        table[last] = value
+    return data
+
+
+DELETE = object()
 
 
 def solve(overrides):
-    problem = problem_module.load_problem(BLOCK, ["mesh.cells=[8,4]", *overrides])
-    domain = problem_module.build_domain(problem, MPI.COMM_WORLD)
-    return adaptive.solve_level(problem, domain, solver_options("direct"))[1].x.array.copy()
+    problem = nc.load_problem(BLOCK, ["mesh.cells=[8,4]", *overrides])
+    return nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD)).u.x.array.copy()
 
 
 def test_a_traction_for_all_of_gamma_n_skips_groups_in_no_role():
@@ -27,17 +50,106 @@ def test_a_traction_for_all_of_gamma_n_skips_groups_in_no_role():
     assert not np.allclose(listed_only, everywhere, rtol=1e-6)
 
 
-def test_parameters_and_overrides():
-    data = problem_module.apply_overrides({"parameters": {"a": 2}}, ["parameters.b=a*3", "contact.m_n=2"])
-    problem = problem_module.problem_from_data(
-        {**data, "mesh": {"rectangle": [[0, 0], [1, 1]], "dirichlet": ["left"], "contact": ["bottom"]}}, "t")
+def test_parameters_overrides_and_defaults():
+    data = apply_overrides(with_("parameters", {"a": 2}), ["parameters.b=a*3", "contact.m_n=b"])
+    problem = nc.Problem.from_dict(data, "t")
     assert problem.parameters == {"a": 2.0, "b": 6.0}
-    assert problem.m_n == 2.0
+    assert problem["contact.m_n"] == 6.0
+    assert problem["contact.gap"] == 0.0 and problem["mesh.neumann"] == [] and problem["adapt.refine"] == "none"
+    assert "contact.gap" not in problem.given and "contact.c_n" in problem.given
+    changed = problem.replace({"contact.c_n": "5*(1 + x)", "parameters.a": 3})
+    assert changed["contact.c_n"] == "5*(1 + x)" and changed.parameters["b"] == 9.0 and problem["contact.c_n"] == 1.0
     with pytest.raises(InputError, match="KEY=VALUE"):
-        problem_module.apply_overrides({}, ["novalue"])
+        apply_overrides({}, ["novalue"])
+
+
+# Every key misspelt or missing names itself; none of these may run with a silent default.
+STRICT = [
+    (with_("material.Young", 1e3), "unknown key 'material.Young'"),
+    (with_("contact.cn", 5), "unknown key 'contact.cn' (did you mean 'contact.c_n'?)"),
+    (with_("contact.mn", 2), "did you mean 'contact.m_n'?"),
+    (with_("loads.force", ["0", "1"]), "unknown key 'loads.force'"),
+    (with_("material.regions", {"rubber": {"young": 50}}), "unknown key 'material.regions.rubber.young'"),
+    (with_("material.regions", {"rubber": {"E": 50}}), "missing required key 'material.regions.rubber.nu'"),
+    (with_("adapt.level", 3), "unknown key 'adapt.level' (did you mean 'adapt.levels'?)"),
+    (with_("solver.presets", "iterative"), "did you mean 'solver.preset'?"),
+    (with_("contacts", {"c_n": 1}), "unknown section '[contacts]' (did you mean '[contact]'?)"),
+    (with_("material", DELETE), "missing required key 'material.E'"),
+    (with_("material.E", DELETE), "missing required key 'material.E': Young's modulus has no default"),
+    (with_("contact", DELETE), "missing required key 'contact.c_n'"),
+    (with_("contact.m_n", DELETE), "missing required key 'contact.m_n'"),
+    (with_("loads", DELETE), "the problem has no load"),
+    (with_("mesh.contact", DELETE), "missing required key 'mesh.contact'"),
+    (with_("material.E", float("nan")), "material.E"),
+    (with_("material.E", float("inf")), "material.E"),
+    (with_("contact.c_n", float("inf")), "contact.c_n must be a finite number"),
+    (with_("material.E", "1e400"), "not a finite number"),
+    (with_("contact.m_n", 0.5), "contact.m_n must be >= 1"),
+    (with_("contact.c_n", -1), "contact.c_n must be >= 0"),
+    (with_("contact.m_n", "2*x"), "cannot depend on the coordinates"),
+    (with_("adapt.refine", "adaptve"), "did you mean 'adaptive'?"),
+    (with_("mesh.cells", DELETE), "mesh.cells is required with mesh.rectangle"),
+    (with_("mesh.cells", [4, 4, 4]), "mesh.cells must be 2 positive integers"),
+    (with_("mesh.box", [[0, 0, 0], [1, 1, 1]]), "exactly one of 'file', 'rectangle' or 'box'"),
+    (with_("loads.f", ["0", "-1", "0"]), "loads.f has 3 components but the mesh is 2D"),
+    (with_("loads.from_exact", True), "loads.from_exact needs [exact] u"),
+    (with_("loads.g", {"top": ["0", "1"]}), "'top', which is not a neumann group"),
+    (with_("solver.load_steps", 2.5), "solver.load_steps must be an integer"),
+    (with_("adapt.levels", True), "adapt.levels must be an integer"),
+    (with_("mesh.dirichlet", ["bottom"]), "'bottom' is in both dirichlet and contact"),
+]
+
+
+@pytest.mark.parametrize("data, message", STRICT, ids=[s[1][:40] for s in STRICT])
+def test_schema_refuses(data, message):
+    with pytest.raises(InputError) as err:
+        nc.Problem.from_dict(data, "t")
+    assert message in str(err.value)
+
+
+def test_the_minimal_problem_is_valid():
+    """The control for STRICT: the same table without the fault validates."""
+    problem = nc.Problem.from_dict(MINIMAL, "t")
+    assert problem["material.E"] == 1.0 and problem.dimension == 2
+
+
+def test_integer_tags_go_through_the_role_checks():
+    """'bottom' is the rectangle's tag 3: naming it by its tag in Γ_D while Γ_C has it by name is refused."""
+    problem = nc.Problem.from_dict(with_("mesh.dirichlet", ["left", 3]), "t")
+    with pytest.raises(InputError, match=r"'bottom' \(tag 3\) is in both dirichlet and contact"):
+        nc.bind(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+
+
+def test_a_contact_boundary_of_two_groups():
+    """Γ_C may be a list of groups: the force is the sum over both (it crashed once)."""
+    two = nc.load_problem(BLOCK, ['mesh.contact=["bottom", "right"]', 'mesh.neumann=["top"]',
+                                  "mesh.cells=[8,4]"])
+    solution = nc.solve(two, nc.build_domain(two, MPI.COMM_WORLD))
+    force = nc.solution_quantities(solution.u, solution.fields)["contact_force"]
+    assert force[1] > 0 and np.isfinite(force).all()
+
+
+def test_every_case_file_validates_and_the_reference_lists_every_key():
+    for name in nc.case_names():
+        nc.load_problem(name)
+    text = schema.reference_markdown()
+    for key in schema.KEYS:
+        if key.kind != "table":
+            assert f"`{key.path}`" in text, key.path
+
+
+def test_readme_key_reference_is_the_generated_one():
+    readme = (ROOT / "README.md").read_text()
+    start, end = "<!-- schema:start -->", "<!-- schema:end -->"
+    assert start in readme and end in readme
+    assert readme.split(start)[1].split(end)[0].strip() == schema.reference_markdown().strip()
 
 
 @pytest.mark.parametrize("text,value", [("2*pi", 2 * np.pi), ("max(1, -2)**2 + pos(-3)", 1.0),
                                         ("sqrt(abs(-16)) / 2", 2.0), ("-2**2", -4.0)])
 def test_expressions(text, value):
     assert to_float(text) == pytest.approx(value)
+
+
+def test_case_files_are_read_as_toml():
+    assert read_toml(BLOCK)["contact"]["m_n"] == 1.5

@@ -17,8 +17,7 @@ from petsc4py import PETSc
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
-from nc_dolfinx import adaptive
-from nc_dolfinx.problem import bind, sigma
+import nc_dolfinx as nc
 
 
 def external_load(fields, v):
@@ -31,14 +30,14 @@ def external_load(fields, v):
 
 def solve_signorini(problem, domain, rtol=1e-12, atol=1e-13):
     """Returns (fields, u_S, info) on ``domain``; ``problem``'s c_n and m_n are not used."""
-    fields = bind(problem, domain)
+    fields = nc.bind(problem, domain)
     msh = domain.mesh
     V = fem.VectorFunctionSpace(msh, ("CG", 1))
     u = fem.Function(V, name="signorini")
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
-    a = fem.form(ufl.inner(sigma(du, fields.lmbda, fields.mu), ufl.sym(ufl.grad(v))) * ufl.dx)
+    a = fem.form(ufl.inner(nc.sigma(du, fields.lmbda, fields.mu), ufl.sym(ufl.grad(v))) * ufl.dx)
     L = fem.form(external_load(fields, v))
-    bcs = adaptive.dirichlet_bcs(V, fields)
+    bcs = fields.boundary_conditions(V)
     K = fem_petsc.assemble_matrix(a, bcs=bcs)
     K.assemble()
     load = fem_petsc.assemble_vector(L)

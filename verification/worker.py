@@ -2,13 +2,12 @@
 
     mpirun -n N /usr/bin/python3 verification/worker.py STUDY --mode quick|full --out RESULT.json
 
-Every study uses the package's public entry points (problem files, ``adaptive.run``, ``solve_level``,
-``estimator.estimate``, ``quantities``) and writes one JSON file (rank 0). The checks, tables, plots and the
+Every study uses only the package's public API (``import nc_dolfinx as nc``: problem files, ``nc.adapt``,
+``nc.solve``, ``nc.estimate``, ``nc.solution_quantities`` …) and writes one JSON file (rank 0). The checks, tables, plots and the
 report are verify.py's business; this file only measures.
 """
 import argparse
 import json
-import logging
 import math
 import sys
 import time
@@ -24,11 +23,9 @@ from dolfinx import fem
 import dolfinx.fem.petsc  # noqa: F401  (fem.petsc)
 from petsc4py import PETSc
 
-from nc_dolfinx import adaptive, estimator, problem as problem_module, quantities, refinement
-from nc_dolfinx.solver import solver_options
+import nc_dolfinx as nc
 
 COMM = MPI.COMM_WORLD
-logging.getLogger().addFilter(lambda record: record.levelno >= logging.WARNING)
 
 
 def say(text):
@@ -74,17 +71,17 @@ def clean_row(row):
 
 
 def manufactured_problem(m, c, cells):
-    return problem_module.load_problem(CASES / "manufactured.toml",
+    return nc.load_problem("manufactured",
                                        [f"parameters.m={m}", f"parameters.c={c}", f"mesh.cells=[{cells},{cells}]"])
 
 
 def uniform_settings(levels):
-    return adaptive.AdaptSettings(refine="uniform", levels=levels).validated()
+    return nc.AdaptSettings(refine="uniform", levels=levels)
 
 
 def cell_values(form, Q):
     """Owned-cell values of a linear form against a DG0 test function (the estimator's assembly)."""
-    return estimator.assemble_cellwise(form, Q)[:, 0]
+    return nc.assemble_cellwise(form, Q)[:, 0]
 
 
 def gather_array(a):
@@ -110,8 +107,8 @@ def study_manufactured(cfg):
                     local.append(stats)
 
             wanted = [m, c] in [list(x) for x in cfg["efficiency"]]
-            _, history = adaptive.run(problem, COMM, uniform_settings(cfg["levels"]),
-                                      on_level=on_level if wanted else None)
+            history = nc.adapt(problem, uniform_settings(cfg["levels"]),
+                               on_level=on_level if wanted else None).history
             rows = [clean_row(r) for r in history]
             for r in rows:
                 r["h"] = math.sqrt(2.0) / (cfg["cells"] * 2 ** r["level"])  # max h_K (right-angled triangles)
@@ -135,10 +132,10 @@ def local_efficiency(level):
     e = fields.u_exact - u
     dx = ufl.dx(metadata={"quadrature_degree": 8})
     err_K = cell_values((ufl.inner(e, e) + ufl.inner(ufl.grad(e), ufl.grad(e))) * w * dx, Q)
-    err_patch = estimator.patch_sum(err_K, Q)  # Σ_{K' ⊂ ω_K} ‖e‖²_{1,K'}
+    err_patch = nc.patch_sum(err_K, Q)  # Σ_{K' ⊂ ω_K} ‖e‖²_{1,K'}
     # the contact part of Remark 9's ẽ, per cell: Σ_{E ∈ E_K^C} h_E ‖σ_n(u − u_h)‖_E²
     n = ufl.FacetNormal(msh)
-    s_n = ufl.dot(problem_module.sigma(e, fields.lmbda, fields.mu) * n, n)
+    s_n = nc.normal_stress(nc.sigma(e, fields.lmbda, fields.mu), n)
     dC = fields.ds_of("contact")(metadata={"quadrature_degree": 16})
     contact_K = cell_values(ufl.FacetArea(msh) * s_n ** 2 * w * dC, Q)
     n_owned = len(err_K)
@@ -167,7 +164,7 @@ CLOSED_FORM = {"a": 2.0, "b": 1.0, "E": 1.0, "nu": 0.3, "w": 0.1, "c": 1.0, "m":
 def closed_form_solution(p):
     """u = (0, v(y)): v(y) = w y (y − b)/(2L) + s (1 − y/b), s = −(δ + g0), δ from the law at y = 0."""
     from scipy.optimize import brentq
-    lmbda, mu = problem_module.lame(p["E"], p["nu"])
+    lmbda, mu = nc.lame(p["E"], p["nu"])
     L = lmbda + 2 * mu
     a, b, w, c, m, g0 = (p[k] for k in ("a", "b", "w", "c", "m", "g0"))
 
@@ -185,7 +182,7 @@ def closed_form_solution(p):
 
 
 def closed_form_data(p, s, cells):
-    lmbda, mu = problem_module.lame(p["E"], p["nu"])
+    lmbda, mu = nc.lame(p["E"], p["nu"])
     params = dict(p, lam=lmbda, L=lmbda + 2 * mu, s=s)
     vp = "(w/(2*L)*(2*y - b) - s/b)"  # v'(y)
     return {
@@ -205,8 +202,8 @@ def study_closed_form(cfg):
     exact = closed_form_solution(p)
     rows = []
     for cells in cfg["meshes"]:
-        problem = problem_module.problem_from_data(closed_form_data(p, exact["s"], cells), "closed_form")
-        _, history = adaptive.run(problem, COMM, adaptive.AdaptSettings(refine="none").validated())
+        problem = nc.Problem.from_dict(closed_form_data(p, exact["s"], cells), "closed_form")
+        history = nc.adapt(problem, nc.AdaptSettings(refine="none")).history
         r = clean_row(history[0])
         r["mesh"] = cells
         r["contact_force_vector"] = history[0]["contact_force"]
@@ -227,11 +224,10 @@ PENALTY_SET = ['loads.f=["0","0"]', 'loads.g={top=["0","-40*pos(1-x)"]}', 'conta
 def contact_nodal_force(u, fields):
     """Σ_i ∫_Γ_C p φ_i over the contact nodes i that are not on Γ_D: the penalty's discrete contact force as the
     Signorini solver sees it (its multipliers live on the free contact nodes only)."""
-    from nc_dolfinx import forms
     V = u.function_space
     v = ufl.TestFunction(V)
-    p = forms.contact_pressure(u, fields)
-    vec = fem.petsc.assemble_vector(fem.form(p * v[1] * forms.contact_measure(fields)))
+    p = nc.contact_pressure(u, fields)
+    vec = fem.petsc.assemble_vector(fem.form(p * v[1] * nc.contact_measure(fields)))
     vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     tags = fields.domain.facet_tags
     contact = fem.locate_dofs_topological(V.sub(1), 1, tags.indices[np.isin(tags.values, fields.ids["contact"])])
@@ -245,26 +241,26 @@ def contact_nodal_force(u, fields):
 
 def study_penalty(cfg):
     from signorini import solve_signorini
-    block = CASES / "block.toml"
+    block = "block"
     cells = cfg["cells"]
     base = [f"mesh.cells=[{cells[0]},{cells[1]}]", "contact.m_n=1"] + PENALTY_SET
-    problem = problem_module.load_problem(block, base + ["contact.c_n=1.0"])
-    domain = problem_module.build_domain(problem, COMM)
-    options = solver_options(problem.preset, problem.petsc_options)
+    problem = nc.load_problem(block, base + ["contact.c_n=1.0"])
+    domain = nc.build_domain(problem, COMM)
     fields, u_S, info = solve_signorini(problem, domain)
     say(f"  Signorini (vinewtonrsls): {info['iterations']} its, {info['reason']}, "
         f"active contact nodes {info['active']}/{info['contact_nodes']}")
-    quantities_S = quantities.solution_quantities(u_S, fields)
+    quantities_S = nc.solution_quantities(u_S, fields)
     rows, previous = [], None
     for eps in sorted(cfg["eps"], reverse=True):
-        pb = problem_module.load_problem(block, base + [f"contact.c_n={1.0 / eps!r}"])
+        pb = nc.load_problem(block, base + [f"contact.c_n={1.0 / eps!r}"])
         t = time.perf_counter()
-        fields_e, u_e, stats = adaptive.solve_level(pb, domain, options, initial=previous)
+        solution = nc.solve(pb, domain, initial=previous)
+        fields_e, u_e, stats = solution.fields, solution.u, solution.stats
         diff = fem.Function(u_e.function_space)
         diff.x.array[:] = u_e.x.array - u_S.x.array
-        l2 = math.sqrt(quantities.integrate(ufl.inner(diff, diff) * ufl.dx, COMM))
-        h1 = math.sqrt(l2 ** 2 + quantities.integrate(ufl.inner(ufl.grad(diff), ufl.grad(diff)) * ufl.dx, COMM))
-        q = quantities.solution_quantities(u_e, fields_e)
+        l2 = math.sqrt(nc.integrate(ufl.inner(diff, diff) * ufl.dx, COMM))
+        h1 = math.sqrt(l2 ** 2 + nc.integrate(ufl.inner(ufl.grad(diff), ufl.grad(diff)) * ufl.dx, COMM))
+        q = nc.solution_quantities(u_e, fields_e)
         n_owned = u_e.function_space.dofmap.index_map.size_local * 2
         linf = COMM.allreduce(float(np.max(np.abs(diff.x.array[:n_owned]), initial=0.0)), MPI.MAX)
         nodal = contact_nodal_force(u_e, fields_e)
@@ -275,7 +271,7 @@ def study_penalty(cfg):
         say(f"  penalty eps={eps:.0e}: |u_eps - u_S|_1 = {h1:.3e}, max penetration {q['max_penetration']:.3e}, "
             f"{stats.newton_iterations} Newton its")
         previous = u_e
-    return {"mesh": cells, "E": problem.E, "overrides": PENALTY_SET, "signorini": info, "signorini_force": info["reaction"],
+    return {"mesh": cells, "E": problem["material.E"], "overrides": PENALTY_SET, "signorini": info, "signorini_force": info["reaction"],
             "signorini_quantities": {k: v for k, v in quantities_S.items() if k != "contact_force"},
             "rows": rows}
 
@@ -283,14 +279,12 @@ def study_penalty(cfg):
 # --- study 4: Hertz line contact ------------------------------------------------------------------------
 
 def study_hertz(cfg):
-    from nc_dolfinx import reference
-    problem = problem_module.load_problem(CASES / "hertz.toml")
-    settings = adaptive.AdaptSettings.from_problem(problem, refine="adaptive", levels=cfg["levels"])
+    problem = nc.load_problem("hertz")
+    settings = nc.AdaptSettings.from_problem(problem, refine="adaptive", levels=cfg["levels"])
     profile = {}
 
     def on_level(level):  # the nodal (lumped) contact pressure along Γ_C, kept for the last level
-        from nc_dolfinx import forms
-        p = quantities.contact_projection(forms.contact_pressure(level.u, level.fields), level.fields, "p")
+        p = nc.contact_projection(nc.contact_pressure(level.u, level.fields), level.fields, "p")
         V = p.function_space
         tags = level.fields.domain.facet_tags
         facets = tags.indices[np.isin(tags.values, level.fields.ids["contact"])]
@@ -302,18 +296,18 @@ def study_hertz(cfg):
             order = np.argsort(x)
             profile.update(x=x[order].tolist(), p=values[order].tolist(), level=level.row["level"])
 
-    _, history = adaptive.run(problem, COMM, settings, on_level=on_level)
+    history = nc.adapt(problem, settings, on_level=on_level).history
     rows = []
-    R = float(problem.reference["hertz_radius"])
+    R, E, nu = problem["reference.radius"], problem["material.E"], problem["material.nu"]
     for h in history:
         r = clean_row(h)
-        ref = reference.hertz_line_contact(h["contact_resultant"], R, problem.E, problem.nu)
+        ref = nc.hertz_line_contact(h["contact_resultant"], R, E, nu)
         r["hertz_half_width"], r["hertz_peak_pressure"] = ref["half_width"], ref["peak_pressure"]
         r["half_width"] = h["contact_length"] / 2
         rows.append(r)
         say(f"  hertz level {r['level']}: {r['dofs']} dofs, a = {r['half_width']:.5f} vs {ref['half_width']:.5f}, "
             f"p0 = {r['max_contact_pressure']:.4g} vs {ref['peak_pressure']:.4g}")
-    return {"E": problem.E, "nu": problem.nu, "R": R, "c_n": str(problem.c_n), "rows": rows, "profile": profile}
+    return {"E": E, "nu": nu, "R": R, "c_n": str(problem["contact.c_n"]), "rows": rows, "profile": profile}
 
 
 # --- study 5: adaptive against uniform on the corner case ---------------------------------------------
@@ -343,7 +337,7 @@ def study_corner(cfg, out):
     """Adaptive and uniform runs of the corner case; the true H¹ error against an overkill reference: the
     last adaptive mesh (``reference_extra`` levels beyond the compared ones) refined uniformly once."""
     from overlay import difference_norms, nested_difference
-    problem = problem_module.load_problem(CASES / "corner.toml")
+    problem = nc.load_problem("corner")
     store = {}
 
     def recorder(kind):
@@ -354,21 +348,21 @@ def study_corner(cfg, out):
         return on_level
 
     n_adapt = cfg["adaptive_levels"]
-    settings = adaptive.AdaptSettings.from_problem(problem, refine="adaptive",
-                                                   levels=n_adapt + cfg["reference_extra"])
-    final, hist_a = adaptive.run(problem, COMM, settings, on_level=recorder("adaptive"))
+    settings = nc.AdaptSettings.from_problem(problem, refine="adaptive", levels=n_adapt + cfg["reference_extra"])
+    result_a = nc.adapt(problem, settings, on_level=recorder("adaptive"))
+    final, hist_a = result_a.final, result_a.history
     t = time.perf_counter()
-    domain_ref = refinement.refine(final.fields.domain)
-    options = solver_options(problem.preset, problem.petsc_options)
-    fields_ref, u_ref, stats = adaptive.solve_level(problem, domain_ref, options, initial=final.u)
-    est = estimator.estimate(u_ref, fields_ref)
+    domain_ref = nc.refine(final.fields.domain)
+    solution = nc.solve(problem, domain_ref, initial=final.u)
+    u_ref, stats = solution.u, solution.stats
+    est = nc.estimate(u_ref, solution.fields)
     reference = {"dofs": 2 * domain_ref.num_vertices(), "cells": domain_ref.num_cells(), "eta": est.totals["eta"],
                  "newton_iterations": stats.newton_iterations, "solve_time": time.perf_counter() - t,
                  "from_adaptive_level": len(hist_a) - 1}
     ref = gather_p1(u_ref)
     say(f"  corner reference: {reference['dofs']} dofs, eta = {reference['eta']:.4e}")
-    settings_u = adaptive.AdaptSettings(refine="uniform", levels=cfg["uniform_levels"]).validated()
-    _, hist_u = adaptive.run(problem, COMM, settings_u, on_level=recorder("uniform"))
+    settings_u = nc.AdaptSettings(refine="uniform", levels=cfg["uniform_levels"])
+    hist_u = nc.adapt(problem, settings_u, on_level=recorder("uniform")).history
     histories = {"adaptive": [clean_row(r) for r in hist_a[:n_adapt]], "uniform": [clean_row(r) for r in hist_u]}
     result = {"compared_adaptive_levels": n_adapt, "histories": histories, "reference": reference}
     if COMM.rank == 0:
@@ -405,10 +399,10 @@ def study_corner(cfg, out):
 
 def study_parallel(cfg):
     problem = manufactured_problem(1.5, 10, 4)
-    _, h1 = adaptive.run(problem, COMM, uniform_settings(cfg["manufactured_levels"]))
-    corner = problem_module.load_problem(CASES / "corner.toml")
-    settings = adaptive.AdaptSettings.from_problem(corner, refine="adaptive", levels=cfg["corner_levels"])
-    _, h2 = adaptive.run(corner, COMM, settings)
+    h1 = nc.adapt(problem, uniform_settings(cfg["manufactured_levels"])).history
+    corner = nc.load_problem("corner")
+    settings = nc.AdaptSettings.from_problem(corner, refine="adaptive", levels=cfg["corner_levels"])
+    h2 = nc.adapt(corner, settings).history
     return {"ranks": COMM.size, "manufactured": [clean_row(r) for r in h1], "corner": [clean_row(r) for r in h2]}
 
 

@@ -10,14 +10,13 @@ from mpi4py import MPI
 
 from dolfinx import mesh as dmesh
 
-from nc_dolfinx import adaptive, estimator, marking, problem as problem_module
-from nc_dolfinx.solver import solver_options
+import nc_dolfinx as nc
 
 comm = MPI.COMM_WORLD
-problem = problem_module.load_problem(sys.argv[1], sys.argv[4:])
-domain = problem_module.build_domain(problem, comm)
-fields, u, _ = adaptive.solve_level(problem, domain, solver_options(problem.preset))
-marked = marking.mark(estimator.estimate(u, fields).squares, comm, float(sys.argv[3]), sys.argv[2])
+problem = nc.load_problem(sys.argv[1], sys.argv[4:])
+domain = nc.build_domain(problem, comm)
+solution = nc.solve(problem, domain)
+marked = nc.mark(nc.estimate(solution.u, solution.fields), float(sys.argv[3]), sys.argv[2])
 midpoints = dmesh.compute_midpoints(domain.mesh, 2, marked)[:, :2]
 everything = comm.gather(midpoints, root=0)
 if comm.rank == 0:

@@ -1,0 +1,238 @@
+"""A problem bound to a mesh: its data as UFL coefficients, its boundary parts as measures and conditions.
+
+:func:`bind` is redone on every mesh of the adaptive loop. Every value written in the problem becomes a
+``fem.Constant`` (or a DG0 field for material regions), so the forms built on :class:`Fields` compile
+once for all values and all meshes with the same cell type.
+
+Boundary groups are resolved to the mesh's integer ids before any role check, so a group named in one
+role and given by its tag in another is caught like two names.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dolfinx import fem
+from dolfinx.cpp.mesh import entities_to_geometry
+
+from . import meshes, physics
+from .errors import InputError
+from .expressions import to_ufl, to_ufl_vector
+from .problem import check_exponent, check_vector_sizes
+from .schema import ROLES
+
+
+@dataclass
+class Fields:
+    """A problem's data on one mesh (rebuilt after each refinement)."""
+    domain: meshes.Domain
+    lmbda: object
+    mu: object
+    f: object
+    g: dict             # facet group id -> UFL traction (untagged boundary: absent, g = 0)
+    c_n: object
+    m_n: object         # fem.Constant
+    gap: object
+    u_exact: object
+    ids: dict           # role -> tuple of group ids; "neumann" includes traction-free boundary
+    ds: object
+    symmetry_axes: dict = field(default_factory=dict)  # symmetry group id -> coordinate axis of its normal
+    notes: list = field(default_factory=list)          # remarks for the summary (not errors)
+
+    @property
+    def dim(self):
+        return self.domain.mesh.geometry.dim
+
+    def ds_of(self, role):
+        """Measure over all facets of a role ('dirichlet', 'neumann', 'contact', 'symmetry')."""
+        return self.ds(self.ids[role])  # a tuple of ids: the union of the groups
+
+    def sigma(self, u):
+        """σ(u) with this problem's material."""
+        return physics.sigma(u, self.lmbda, self.mu)
+
+    def boundary_conditions(self, V):
+        """u = 0 on Γ_D; on each symmetry plane the normal component of u is 0."""
+        tags, fdim = self.domain.facet_tags, self.domain.mesh.topology.dim - 1
+        clamped = tags.indices[np.isin(tags.values, self.ids["dirichlet"])]
+        bcs = [fem.dirichletbc(np.zeros(self.dim, dtype=PETSc.ScalarType),
+                               fem.locate_dofs_topological(V, fdim, clamped), V)]
+        for group, axis in self.symmetry_axes.items():
+            facets = tags.indices[tags.values == group]
+            dofs = fem.locate_dofs_topological(V.sub(axis), fdim, facets)
+            bcs.append(fem.dirichletbc(PETSc.ScalarType(0), dofs, V.sub(axis)))
+        return bcs
+
+
+def bind(problem, domain):
+    """The problem's UFL fields on ``domain``; checks groups, roles, Γ_D, Γ_C, symmetry planes, the
+    dimension of every vector, m_n in 3D, and the signs of c_n and g_0 on Γ_C."""
+    msh, params, values = domain.mesh, problem.parameters, problem.values
+    dim = msh.geometry.dim
+    check_vector_sizes(values, dim)
+    check_exponent(values["contact"]["m_n"], dim)
+    ids = _role_ids(problem, domain)
+    counts = _facet_counts(domain)
+    for role, symbol in (("dirichlet", "Γ_D"), ("contact", "Γ_C")):
+        if sum(counts.get(i, 0) for i in ids[role]) == 0:
+            raise InputError(f"{symbol} ({role}) is empty: no boundary facet in groups "
+                             f"{values['mesh'][role]}")
+    listed_neumann = ids["neumann"]  # a traction given for all of Γ_N applies to these only
+    # Groups of the mesh in no role, and untagged facets, are traction-free Neumann boundary.
+    in_roles = set(sum(ids.values(), ()))
+    free = tuple(i for i in (meshes.UNTAGGED, *domain.facet_groups.values())
+                 if i not in in_roles and counts.get(i, 0))
+    ids["neumann"] = tuple(sorted(set(ids["neumann"] + free)))
+
+    lmbda, mu = _material(problem, domain)
+    u_exact = to_ufl_vector(values["exact"]["u"], msh, params, "exact.u") if values["exact"]["u"] else None
+    f, g = _loads(problem, domain, listed_neumann, ids["neumann"], u_exact, lmbda, mu)
+    contact = values["contact"]
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=domain.facet_tags)
+    fields = Fields(domain, lmbda, mu, f, g, to_ufl(contact["c_n"], msh, params),
+                    fem.Constant(msh, PETSc.ScalarType(contact["m_n"])), to_ufl(contact["gap"], msh, params),
+                    u_exact, ids, ds)
+    fields.symmetry_axes = {i: _symmetry_axis(domain, i, _name(domain, i)) for i in ids["symmetry"]
+                            if counts.get(i, 0)}
+    for name in ("c_n", "gap"):
+        _check_on_contact(fields, name, getattr(fields, name))
+    if dim == 3 and contact["m_n"] > 2:
+        fields.notes.append(f"m_n = {contact['m_n']:g} > 2 in 3D: σ_n(u) ∈ L²(Γ_C), used by the paper's "
+                            "proofs, is guaranteed only for m_n <= 2 (H^1/2(Γ_C) ⊂ L⁴); the law is well "
+                            "posed up to m_n = 3")
+    return fields
+
+
+def _name(domain, group_id):
+    names = {i: name for name, i in domain.facet_groups.items()}
+    return names.get(group_id, str(group_id))
+
+
+def _role_ids(problem, domain):
+    """Group ids of each role; a group (by name or tag) in two roles is an error."""
+    ids, role_of = {}, {}
+    for role in ROLES:
+        resolved = set()
+        for group in problem.values["mesh"][role]:
+            group_id = _group_id(domain, group, role)
+            if group_id in role_of and role_of[group_id] != role:
+                raise InputError(f"boundary group '{_name(domain, group_id)}' (tag {group_id}) is in both "
+                                 f"{role_of[group_id]} and {role}")
+            role_of[group_id] = role
+            resolved.add(group_id)
+        ids[role] = tuple(sorted(resolved))
+    return ids
+
+
+def _group_id(domain, group, role):
+    if isinstance(group, int):
+        if group not in domain.facet_groups.values():
+            raise InputError(f"{role} group {group} is not a boundary tag of the mesh (tags: "
+                             f"{', '.join(map(str, sorted(domain.facet_groups.values())))})")
+        return group
+    if group not in domain.facet_groups:
+        raise InputError(f"{role} group '{group}' is not in the mesh (groups: "
+                         f"{', '.join(sorted(domain.facet_groups))})")
+    return domain.facet_groups[group]
+
+
+def _material(problem, domain):
+    """λ, μ: Constants, or DG0 fields when regions have their own E and ν."""
+    material, msh = problem.values["material"], domain.mesh
+    regions = material.get("regions", {})
+    if not regions:
+        return (fem.Constant(msh, PETSc.ScalarType(v)) for v in physics.lame(material["E"], material["nu"]))
+    E, nu = (fem.Function(domain.region.function_space) for _ in range(2))
+    E.x.array[:], nu.x.array[:] = material["E"], material["nu"]
+    for region, values in regions.items():
+        if region not in domain.cell_groups:
+            raise InputError(f"material region '{region}' is not a cell group of the mesh "
+                             f"(groups: {', '.join(sorted(domain.cell_groups))})")
+        mask = np.isclose(domain.region.x.array, domain.cell_groups[region])
+        E.x.array[mask], nu.x.array[mask] = values["E"], values["nu"]
+    return physics.lame(E, nu)
+
+
+def _loads(problem, domain, listed_neumann, neumann, u_exact, lmbda, mu):
+    """f and the tractions g per Neumann group id."""
+    msh, params, loads = domain.mesh, problem.parameters, problem.values["loads"]
+    if loads["from_exact"]:
+        n = ufl.FacetNormal(msh)
+        s = physics.sigma(u_exact, lmbda, mu)
+        return -ufl.div(s), {i: s * n for i in neumann}
+    zero = ["0"] * msh.geometry.dim
+    f = to_ufl_vector(loads["f"] or zero, msh, params, "loads.f")
+    g, given = {}, loads["g"]
+    if isinstance(given, list):
+        value = to_ufl_vector(given, msh, params, "loads.g")
+        g = {i: value for i in listed_neumann}
+    elif isinstance(given, dict):
+        for group, vector in given.items():
+            group_id = domain.facet_groups.get(group, int(group) if group.isdigit() else None)
+            g[group_id] = to_ufl_vector(vector, msh, params, f"loads.g.{group}")
+    return f, g
+
+
+def _facet_counts(domain):
+    """Global number of exterior facets per group id."""
+    tags = domain.facet_tags
+    n_owned = domain.mesh.topology.index_map(domain.mesh.topology.dim - 1).size_local
+    values = tags.values[tags.indices < n_owned]
+    local = {int(i): int(np.count_nonzero(values == i)) for i in np.unique(values)}
+    merged = {}
+    for counts in domain.comm.allgather(local):
+        for key, c in counts.items():
+            merged[key] = merged.get(key, 0) + c
+    return merged
+
+
+def _symmetry_axis(domain, group_id, name):
+    """The coordinate axis normal to a symmetry group, which must lie in a plane x_i = const."""
+    msh = domain.mesh
+    tags = domain.facet_tags
+    facets = tags.indices[tags.values == group_id]
+    nodes = entities_to_geometry(msh._mesh, msh.topology.dim - 1, facets, False)
+    x = msh.geometry.x[nodes.ravel(), :msh.geometry.dim]
+    comm = domain.comm
+    low = comm.allreduce(x.min(axis=0) if len(x) else np.full(msh.geometry.dim, np.inf), MPI.MIN)
+    high = comm.allreduce(x.max(axis=0) if len(x) else np.full(msh.geometry.dim, -np.inf), MPI.MAX)
+    extent = comm.allreduce(float(np.ptp(msh.geometry.x, axis=0).max()) if len(msh.geometry.x) else 0.0,
+                            MPI.MAX)
+    flat = np.flatnonzero(high - low <= 1e-10 * extent)
+    if len(flat) != 1:
+        raise InputError(f"symmetry group '{name}' does not lie in a plane normal to a coordinate axis "
+                         "(x, y or z = const): only such planes are supported")
+    return int(flat[0])
+
+
+def _check_on_contact(fields, name, expr):
+    """c_n and g_0 must be finite and >= 0 on Γ_C: checked at the P1 nodes of the contact facets."""
+    domain = fields.domain
+    V = fem.FunctionSpace(domain.mesh, ("CG", 1))
+    points = V.element.interpolation_points
+    values = fem.Function(V)
+    values.interpolate(fem.Expression(expr, points() if callable(points) else points))
+    tags = domain.facet_tags
+    facets = tags.indices[np.isin(tags.values, fields.ids["contact"])]
+    dofs = fem.locate_dofs_topological(V, domain.mesh.topology.dim - 1, facets)
+    local = values.x.array[dofs]
+    if domain.comm.allreduce(bool(np.any(~np.isfinite(local))), MPI.LOR):
+        raise InputError(f"contact.{name} is not finite everywhere on Γ_C (division by zero or overflow?)")
+    if domain.comm.allreduce(float(local.min()) if len(local) else np.inf, MPI.MIN) < 0:
+        raise InputError(f"contact.{name} must be >= 0 on Γ_C, but it is negative somewhere on it")
+
+
+def build_domain(problem, comm):
+    """The level-0 mesh of the problem's [mesh]: a built-in rectangle or box, or a gmsh file."""
+    from pathlib import Path
+    spec = problem.values["mesh"]
+    if spec["rectangle"]:
+        return meshes.rectangle(comm, spec["rectangle"], spec["cells"], spec["diagonal"])
+    if spec["box"]:
+        return meshes.box(comm, spec["box"], spec["cells"])
+    path = Path(spec["file"])
+    if not path.is_file():
+        raise InputError(f"mesh file '{path}' not found")
+    return meshes.from_gmsh(comm, path)
