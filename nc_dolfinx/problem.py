@@ -225,7 +225,10 @@ def build_domain(problem, comm):
     path = Path(spec["file"])
     if not path.is_file():
         raise InputError(f"mesh file '{path}' not found")
-    return meshes.from_gmsh(comm, path)
+    domain = meshes.from_gmsh(comm, path)
+    if domain.tdim != 2:  # the meshes are dimension-generic, the physics here is still plane strain
+        raise InputError(f"mesh file '{path}' is {domain.tdim}D: only 2D meshes are supported")
+    return domain
 
 
 @dataclass
