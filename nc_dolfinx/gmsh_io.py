@@ -38,7 +38,9 @@ def from_gmsh_model(comm, model=None, rank=0):
     """Domain of a gmsh model (default ``gmsh.model``) meshed in memory on ``rank`` by a user script.
     Only ``rank`` needs the model; gmsh stays initialised (the caller finalises it)."""
     model = gmsh.model if model is None else model
-    where = f"gmsh model '{model.getCurrent()}'" if comm.rank == rank else None
+    where = None
+    if comm.rank == rank:
+        where = f"gmsh model '{model.getCurrent()}'" if model.getCurrent() else "gmsh model"
     return _to_domain(comm, model, rank, where)
 
 
