@@ -123,22 +123,43 @@ def _match_points(known, wanted):
     """Index into ``known`` (n, gdim) of each ``wanted`` point (m, gdim), -1 where none matches.
 
     Coordinates are compared rounded to 2^-30 of the extent of ``known`` (so a midpoint summed in another
-    order still matches): rows of integers, numbered by ``np.unique`` over both sets. If rounding merges
-    two known points, nothing is matched (the caller then locates every point).
+    order still matches), two coordinates packed per int64 (one word in 2D, two in 3D), and equal words
+    numbered by a sort. If rounding merges two known points, nothing is matched (the caller then locates
+    every point).
     """
     if len(known) == 0 or len(wanted) == 0:
         return np.full(len(wanted), -1)
     low = known.min(axis=0)
     scale = max(float(np.max(known.max(axis=0) - low)), np.finfo(float).tiny) * 2.0 ** -30
-    rows = np.rint((np.concatenate([known, wanted]) - low) / scale).astype(np.int64)
-    _, number = np.unique(rows, axis=0, return_inverse=True)
-    number = number.reshape(-1)
+    grid = [(points - low) / scale for points in (known, wanted)]
+    inside = np.all((grid[1] > -0.5) & (grid[1] < 2.0 ** 30 + 0.5), axis=1)  # else a packed key could collide
+    number = _number_rows(_pack(np.rint(np.concatenate([grid[0], grid[1][inside]])).astype(np.int64)))
     known_number, wanted_number = number[:len(known)], number[len(known):]
+    if np.bincount(known_number).max() > 1:
+        return np.full(len(wanted), -1)
     index_of_number = np.full(number.max() + 1, -1)
     index_of_number[known_number] = np.arange(len(known))
-    if len(np.unique(known_number)) < len(known):
-        return np.full(len(wanted), -1)
-    return index_of_number[wanted_number]
+    result = np.full(len(wanted), -1)
+    result[inside] = index_of_number[wanted_number]
+    return result
+
+
+def _pack(rows):
+    """Rows of integers in [0, 2^30] (n, gdim), two per int64 word: (n, ceil(gdim / 2))."""
+    if rows.shape[1] % 2:
+        rows = np.concatenate([np.zeros((len(rows), 1), dtype=np.int64), rows], axis=1)
+    return (rows[:, 0::2] << 31) | rows[:, 1::2]
+
+
+def _number_rows(words):
+    """The same number for equal rows of ``words``, consecutive from 0 (sorted by the last word first)."""
+    order = np.argsort(words[:, -1])
+    for column in words.T[-2::-1]:  # stable: rows equal in this word stay sorted by the later words
+        order = order[np.argsort(column[order], kind="stable")]
+    ordered = words[order]
+    number = np.empty(len(words), dtype=np.int64)
+    number[order] = np.cumsum(np.concatenate([[0], np.any(ordered[1:] != ordered[:-1], axis=1)]))
+    return number
 
 
 def _has_duplicate_ghosts(msh):

@@ -103,5 +103,8 @@ def test_point_matching(gdim):
     np.testing.assert_array_equal(index[:3], [5, 999, 3])
     np.testing.assert_array_equal(index[3:13], np.arange(1000, 1010))  # midpoints summed in the other order
     assert index[13] == -1 and index[14] == -1  # a far point, a point slightly off a known one
+    # on the grid of 2^-30, (2, 2^31) packs like the known (3, 0): a point that far out is never matched
+    square = np.array([[0.0, 0.0], [1.0, 1.0], [3 * 2.0 ** -30, 0.0]])
+    np.testing.assert_array_equal(_match_points(square, np.array([[2.0 ** -29, 2.0], [1.0, 1.0]])), [-1, 1])
     merged = np.concatenate([known, known[:1] + 1e-14])  # two known points closer than the rounding
     assert np.all(_match_points(merged, wanted) == -1)
