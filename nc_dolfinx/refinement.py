@@ -6,8 +6,8 @@ inside a local (owned or ghost) parent cell. Regions and the displacement are th
 linear along edges, so the displacement at a child vertex is the parent's value there or the mean of the
 edge's two end values: exact (this is nested iteration's initial guess), and found by matching
 coordinates, without any point location. Region ids (only when there is more than one region) are
-evaluated at child cell midpoints. Boundary groups are re-derived geometrically from the level-0 segments
-(see :mod:`nc_dolfinx.meshes`).
+evaluated at child cell midpoints. Boundary groups are re-derived geometrically from the level-0 boundary
+simplices (see :mod:`nc_dolfinx.domain`). All of this holds for triangles and tetrahedra alike.
 
 DOLFINx 0.5's refinement builds the new ghost layer with a partitioner that sends a cell once per
 off-rank *neighbour*: a cell with two facet-neighbours on the same rank arrives there twice, and the facet
@@ -24,28 +24,28 @@ from mpi4py import MPI
 import dolfinx
 from dolfinx import fem, geometry, mesh as dmesh
 
-from .meshes import Domain, region_function, tag_exterior_facets
+from .domain import Domain, region_function, tag_exterior_facets
 
 
 def refine(domain, cells=None):
     """Refine the owned ``cells`` (local indices; ``None``: every cell) and return the new Domain."""
-    msh = domain.mesh
+    msh, tdim = domain.mesh, domain.mesh.topology.dim
     if cells is None:
         child = dmesh.refine(msh, redistribute=False)
     else:
         msh.topology.create_entities(1)
-        edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), 2, 1)
+        edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), tdim, 1)
         child = dmesh.refine(msh, edges, redistribute=False)
     if msh.comm.size > 1 and _has_duplicate_ghosts(child):
         child = _rebuild_with_unique_ghosts(child)
-    n_owned = child.topology.index_map(2).size_local
+    n_owned = child.topology.index_map(tdim).size_local
     if len(domain.cell_groups) == 1:  # one region: nothing to locate
         regions = np.full(n_owned, next(iter(domain.cell_groups.values())))
     else:
-        midpoints = dmesh.compute_midpoints(child, 2, np.arange(n_owned, dtype=np.int32))
+        midpoints = dmesh.compute_midpoints(child, tdim, np.arange(n_owned, dtype=np.int32))
         regions = np.rint(evaluate(domain.region, midpoints)[:, 0])
-    return Domain(child, tag_exterior_facets(child, domain.segments), region_function(child, regions),
-                  domain.facet_groups, domain.cell_groups, domain.segments)
+    return Domain(child, tag_exterior_facets(child, domain.boundary), region_function(child, regions),
+                  domain.facet_groups, domain.cell_groups, domain.boundary)
 
 
 def evaluate(function, points):
@@ -72,9 +72,9 @@ def transfer(function, space):
     """
     out, count = fem.Function(space, name=function.name), fem.Function(space)
     bs = space.dofmap.index_map_bs
-    n_cells = space.mesh.topology.index_map(2).size_local
+    n_cells = space.mesh.topology.index_map(space.mesh.topology.dim).size_local
     in_owned_cell = np.zeros(space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts, bool)
-    in_owned_cell[space.dofmap.list.array.reshape(-1, 3)[:n_cells]] = True
+    in_owned_cell[space.dofmap.list.array.reshape(-1, space.dofmap.dof_layout.num_dofs)[:n_cells]] = True
     dofs = np.flatnonzero(in_owned_cell)
     out.x.array.reshape(-1, bs)[dofs] = _values_at_child_vertices(function,
                                                                   space.tabulate_dof_coordinates()[dofs])
@@ -96,20 +96,21 @@ def _values_at_child_vertices(function, points):
     """
     V = function.function_space
     msh, bs = V.mesh, V.dofmap.index_map_bs
+    tdim, gdim = msh.topology.dim, msh.geometry.dim
     msh.topology.create_entities(1)
     msh.topology.create_connectivity(1, 0)
-    msh.topology.create_connectivity(2, 0)
-    cell_vertices = msh.topology.connectivity(2, 0).array
+    msh.topology.create_connectivity(tdim, 0)
+    cell_vertices = msh.topology.connectivity(tdim, 0).array  # P1: the dofs of a cell are its vertices
     dof_of_vertex = np.empty(msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts,
                              dtype=np.int32)
     dof_of_vertex[cell_vertices] = V.dofmap.list.array
     edge_dofs = dof_of_vertex[msh.topology.connectivity(1, 0).array.reshape(-1, 2)]
-    x = V.tabulate_dof_coordinates()[:, :2]
+    x = V.tabulate_dof_coordinates()[:, :gdim]
     values = function.x.array.reshape(-1, bs)
     known_x = np.concatenate([x, 0.5 * (x[edge_dofs[:, 0]] + x[edge_dofs[:, 1]])])
     known_values = np.concatenate([values, 0.5 * (values[edge_dofs[:, 0]] + values[edge_dofs[:, 1]])])
 
-    index = _match_points(known_x, points[:, :2])
+    index = _match_points(known_x, points[:, :gdim])
     found = index >= 0
     result = np.empty((len(points), bs))
     result[found] = known_values[index[found]]
@@ -119,34 +120,54 @@ def _values_at_child_vertices(function, points):
 
 
 def _match_points(known, wanted):
-    """Index into ``known`` (n, 2) of each ``wanted`` point, -1 where none matches.
+    """Index into ``known`` (n, gdim) of each ``wanted`` point (m, gdim), -1 where none matches.
 
     Coordinates are compared rounded to 2^-30 of the extent of ``known`` (so a midpoint summed in another
-    order still matches) through one sorted int64 key; if rounding merges two known points, nothing is
-    matched (the caller then locates every point).
+    order still matches), two coordinates packed per int64 (one word in 2D, two in 3D), and equal words
+    numbered by a sort. If rounding merges two known points, nothing is matched (the caller then locates
+    every point).
     """
     if len(known) == 0 or len(wanted) == 0:
         return np.full(len(wanted), -1)
-    low = np.array([known[:, 0].min(), known[:, 1].min()])
-    extent = max(known[:, 0].max() - low[0], known[:, 1].max() - low[1])
-    scale = max(extent, np.finfo(float).tiny) * 2.0 ** -30
-    key = lambda p: (np.rint((p[:, 0] - low[0]) / scale).astype(np.int64) << 31) \
-        + np.rint((p[:, 1] - low[1]) / scale).astype(np.int64)
-    known_keys = key(known)
-    order = np.argsort(known_keys)
-    sorted_keys = known_keys[order]
-    if np.any(sorted_keys[1:] == sorted_keys[:-1]):
+    low = known.min(axis=0)
+    scale = max(float(np.max(known.max(axis=0) - low)), np.finfo(float).tiny) * 2.0 ** -30
+    grid = [(points - low) / scale for points in (known, wanted)]
+    inside = np.all((grid[1] > -0.5) & (grid[1] < 2.0 ** 30 + 0.5), axis=1)  # else a packed key could collide
+    number = _number_rows(_pack(np.rint(np.concatenate([grid[0], grid[1][inside]])).astype(np.int64)))
+    known_number, wanted_number = number[:len(known)], number[len(known):]
+    if np.bincount(known_number).max() > 1:
         return np.full(len(wanted), -1)
-    wanted_keys = key(wanted)
-    position = np.minimum(np.searchsorted(sorted_keys, wanted_keys), len(sorted_keys) - 1)
-    return np.where(sorted_keys[position] == wanted_keys, order[position], -1)
+    index_of_number = np.full(number.max() + 1, -1)
+    index_of_number[known_number] = np.arange(len(known))
+    result = np.full(len(wanted), -1)
+    result[inside] = index_of_number[wanted_number]
+    return result
+
+
+def _pack(rows):
+    """Rows of integers in [0, 2^30] (n, gdim), two per int64 word: (n, ceil(gdim / 2))."""
+    if rows.shape[1] % 2:
+        rows = np.concatenate([np.zeros((len(rows), 1), dtype=np.int64), rows], axis=1)
+    return (rows[:, 0::2] << 31) | rows[:, 1::2]
+
+
+def _number_rows(words):
+    """The same number for equal rows of ``words``, consecutive from 0 (sorted by the last word first)."""
+    order = np.argsort(words[:, -1])
+    for column in words.T[-2::-1]:  # stable: rows equal in this word stay sorted by the later words
+        order = order[np.argsort(column[order], kind="stable")]
+    ordered = words[order]
+    number = np.empty(len(words), dtype=np.int64)
+    number[order] = np.cumsum(np.concatenate([[0], np.any(ordered[1:] != ordered[:-1], axis=1)]))
+    return number
 
 
 def _has_duplicate_ghosts(msh):
     """Whether a facet has more than two local cells on some rank (a cell ghosted twice next to it)."""
-    msh.topology.create_entities(1)
-    msh.topology.create_connectivity(1, 2)
-    offsets = msh.topology.connectivity(1, 2).offsets
+    tdim = msh.topology.dim
+    msh.topology.create_entities(tdim - 1)
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    offsets = msh.topology.connectivity(tdim - 1, tdim).offsets
     return msh.comm.allreduce(bool(np.any(np.diff(offsets) > 2)), MPI.LOR)
 
 
@@ -154,10 +175,10 @@ def _rebuild_with_unique_ghosts(msh):
     """The same distributed mesh (owned cells stay on their rank), with a duplicate-free ghost layer."""
     comm = msh.comm
     node_map = msh.geometry.index_map()
-    n_cells = msh.topology.index_map(2).size_local
-    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]
-    cells = node_map.local_to_global(nodes.ravel()).reshape(-1, 3)
-    x = msh.geometry.x[:node_map.size_local, :2]
+    n_cells = msh.topology.index_map(msh.topology.dim).size_local
+    nodes = msh.geometry.dofmap.array.reshape(msh.geometry.dofmap.num_nodes, -1)[:n_cells]
+    cells = node_map.local_to_global(nodes.ravel()).reshape(nodes.shape)
+    x = msh.geometry.x[:node_map.size_local, :msh.geometry.dim]
 
     def keep_local_partitioner(comm_, nparts, tdim, cell_topology, ghost_mode):
         graph = dolfinx.cpp.mesh.build_dual_graph(comm_, cell_topology, tdim)

@@ -1,0 +1,138 @@
+"""A mesh with named boundary groups and material regions, in 2D (triangles) and 3D (tetrahedra).
+
+A :class:`Domain` is a DOLFINx mesh plus
+- ``facet_tags``: every owned exterior facet tagged with its boundary group id (``UNTAGGED`` = 0 when in none);
+- ``region``: a DG0 function holding each cell's region (material) id;
+- ``boundary``: the level-0 boundary simplices (segments in 2D, triangles in 3D) with their group ids,
+  replicated on every rank.
+
+Boundary facets are tagged *geometrically*: a facet belongs to the group of the level-0 boundary simplex
+that contains its centroid. Plaza refinement only bisects edges, so every descendant of a boundary facet
+lies inside a level-0 one, and the same matcher re-tags the mesh after each refinement, whatever the
+partition or ghost mode (``transfer_facet_meshtag`` in DOLFINx 0.5 needs ``GhostMode.none``, which would
+break interior-facet integrals on partition boundaries).
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+from mpi4py import MPI
+from scipy.spatial import cKDTree
+
+import dolfinx
+from dolfinx import fem, mesh as dmesh
+
+UNTAGGED = 0
+_NEAREST = 8  # simplices checked exactly per point before the exhaustive fallback
+
+
+@dataclass
+class Domain:
+    mesh: dmesh.Mesh
+    facet_tags: object  # dolfinx MeshTags on the owned exterior facets
+    region: fem.Function
+    facet_groups: dict  # name -> id
+    cell_groups: dict  # name -> id
+    boundary: tuple = field(repr=False)  # (vertices (n, tdim, gdim) float, group ids (n,) int32)
+
+    @property
+    def comm(self):
+        return self.mesh.comm
+
+    @property
+    def tdim(self):
+        return self.mesh.topology.dim
+
+    def num_cells(self):
+        return self.mesh.topology.index_map(self.tdim).size_global
+
+    def num_vertices(self):
+        return self.mesh.topology.index_map(0).size_global
+
+
+# --- point-in-simplex matching ----------------------------------------------------------------
+
+def distance_to_simplices(points, vertices):
+    """Distance from points (n, gdim) to simplices given by their vertices (n, k, gdim), pairwise.
+
+    The closest point of the simplex's affine hull is found from the normal equations; where its
+    barycentric coordinates are not all >= 0, the closest point lies on a face, so the distance is the
+    smallest one to the k faces (recursively, down to segments and points).
+    """
+    points, vertices = np.asarray(points, float), np.asarray(vertices, float)
+    k = vertices.shape[1]
+    if k == 1 or len(points) == 0:
+        return np.linalg.norm(points - vertices[:, 0], axis=-1)
+    origin = vertices[:, 0]
+    edges = vertices[:, 1:] - origin[:, None]  # (n, k-1, gdim)
+    gram = np.einsum("nig,njg->nij", edges, edges)
+    lam = np.linalg.solve(gram, np.einsum("nig,ng->ni", edges, points - origin)[..., None])[..., 0]
+    dist = np.linalg.norm(points - origin - np.einsum("ni,nig->ng", lam, edges), axis=-1)
+    outside = (lam.min(axis=1) < 0) | (lam.sum(axis=1) > 1)
+    if np.any(outside):
+        faces = [np.delete(vertices[outside], j, axis=1) for j in range(k)]
+        dist[outside] = np.min([distance_to_simplices(points[outside], f) for f in faces], axis=0)
+    return dist
+
+
+def match_simplices(points, boundary, tol):
+    """Group id of the simplex within ``tol`` of each point (the nearest), ``UNTAGGED`` where none is."""
+    vertices, ids = boundary
+    result = np.full(len(points), UNTAGGED, dtype=np.int32)
+    if len(points) == 0 or len(ids) == 0:
+        return result
+    centroids = vertices.mean(axis=1)
+    tree = cKDTree(centroids)
+    k = min(_NEAREST, len(ids))
+    _, near = tree.query(points, k=k)
+    near = near.reshape(len(points), k)
+    dist = np.stack([distance_to_simplices(points, vertices[near[:, j]]) for j in range(k)], axis=1)
+    best = np.argmin(dist, axis=1)
+    found = dist[np.arange(len(points)), best] <= tol
+    result[found] = ids[near[found, best[found]]]
+    # Graded meshes can hide the containing simplex behind k nearer centroids. A point inside a simplex
+    # is no farther from its centroid than the simplex's farthest vertex: that radius finds it for sure.
+    lost = np.flatnonzero(~found)
+    if len(lost):
+        radius = np.linalg.norm(vertices - centroids[:, None], axis=-1).max() + tol
+        candidates = tree.query_ball_point(points[lost], radius)
+        point = np.repeat(lost, [len(c) for c in candidates])
+        simplex = np.fromiter((s for c in candidates for s in c), dtype=np.int64, count=len(point))
+        dist = distance_to_simplices(points[point], vertices[simplex])
+        order = np.lexsort((dist, point))  # per point, nearest first
+        first = order[np.r_[True, point[order][1:] != point[order][:-1]]] if len(order) else order
+        within = first[dist[first] <= tol]
+        result[point[within]] = ids[simplex[within]]
+    return result
+
+
+# --- tags and regions on a mesh ---------------------------------------------------------------
+
+def owned_exterior_facets(msh):
+    """Sorted local indices of the owned exterior facets."""
+    tdim = msh.topology.dim
+    msh.topology.create_entities(tdim - 1)
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    return np.sort(dolfinx.cpp.mesh.exterior_facet_indices(msh.topology)).astype(np.int32)
+
+
+def mesh_diameter(msh):
+    """Largest extent of the (global) mesh along a coordinate axis."""
+    x = msh.geometry.x[:, :msh.geometry.dim]
+    return msh.comm.allreduce(float(np.ptp(x, axis=0).max()) if len(x) else 0.0, MPI.MAX)
+
+
+def tag_exterior_facets(msh, boundary):
+    """MeshTags on the owned exterior facets, valued by the group of the boundary simplex they lie in."""
+    facets = owned_exterior_facets(msh)
+    centroids = dmesh.compute_midpoints(msh, msh.topology.dim - 1, facets)[:, :msh.geometry.dim]
+    ids = match_simplices(centroids, boundary, 1e-9 * mesh_diameter(msh))
+    return dmesh.meshtags(msh, msh.topology.dim - 1, facets, ids)
+
+
+def region_function(msh, values_of_owned_cells):
+    """DG0 function of region ids from values on the owned cells (ghosts filled by scatter)."""
+    region = fem.Function(fem.FunctionSpace(msh, ("DG", 0)), name="region")
+    n_owned = msh.topology.index_map(msh.topology.dim).size_local
+    region.x.array[:n_owned] = values_of_owned_cells
+    region.x.scatter_forward()
+    return region
