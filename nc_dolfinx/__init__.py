@@ -25,7 +25,7 @@ from .estimator import CELL_DEGREE, CONTACT_DEGREE, Estimate, assemble_cellwise,
 from .forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure
 from .log import quiet_compilers, show_progress
 from .marking import mark
-from .meshes import Domain, from_gmsh, rectangle
+from .meshes import Domain, box, from_dolfinx, from_gmsh, from_gmsh_model, rectangle
 from .problem import Problem, load_problem
 from .physics import lame, normal_stress, sigma
 from .quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
@@ -40,7 +40,7 @@ QUADRATURE_DEGREES = {"contact_form": CONTACT_QUADRATURE_DEGREE, "contact_est": 
 
 __all__ = [
     "Problem", "load_problem", "case_names", "case_path",
-    "Domain", "build_domain", "rectangle", "from_gmsh",
+    "Domain", "build_domain", "rectangle", "box", "from_gmsh", "from_gmsh_model", "from_dolfinx",
     "Fields", "bind", "Solution", "solve",
     "Estimate", "estimate", "mark", "refine", "transfer",
     "AdaptSettings", "Level", "Result", "adapt",
