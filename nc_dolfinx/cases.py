@@ -14,12 +14,14 @@ def available():
 
 
 def case_names():
-    """The names of the built-in cases."""
+    """The names of the built-in cases (problem files shipped in ``nc_dolfinx/cases/``), for
+    :func:`load_problem`."""
     return sorted(p.stem for p in CASES_DIR.glob("*.toml"))
 
 
 def case_path(name):
-    """The problem file of a built-in case."""
+    """The path of a built-in case's problem file (a TOML file to read or copy); :class:`InputError`
+    for an unknown name."""
     return resolve(name) if (CASES_DIR / f"{name}.toml").is_file() else _unknown(name)
 
 

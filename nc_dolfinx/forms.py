@@ -38,6 +38,8 @@ def contact_pressure(u, fields, n=None):
 
 
 def contact_measure(fields, degree=CONTACT_QUADRATURE_DEGREE):
+    """The measure of Γ_C, where j_n of (7) is integrated, with a Gauss rule of ``degree`` (high: the
+    integrands hold (u_n − g_0)_+, whose kink may lie inside a facet)."""
     return fields.ds_of("contact")(metadata={"quadrature_degree": degree})
 
 

@@ -16,9 +16,20 @@ from .errors import InputError
 
 @dataclass(frozen=True)
 class Problem:
-    """A validated problem. ``values`` holds every schema key (defaults filled in, numbers as floats,
-    expressions as written); ``given`` the dotted keys the problem set explicitly; ``raw`` the table as
-    written (after overrides), from which :meth:`replace` revalidates."""
+    """A validated normal compliance problem (paper §2): the body's material (Hooke's law), the loads f
+    and g of (1) and (3), the clamped part Γ_D of (2), and c_n, m_n and the gap g_0 of the law (4) on Γ_C,
+    with the adaptive loop's and the solver's settings. It holds no mesh: bind it to one with
+    :func:`bind` (or let :func:`solve` / :func:`adapt` do it).
+
+    ``values`` holds every schema key (defaults filled in, numbers as floats, expressions as written);
+    ``given`` the dotted keys the problem set explicitly; ``raw`` the table as written (after overrides),
+    from which :meth:`replace` revalidates. Every number of a problem reaches the forms as a
+    ``fem.Constant`` (inside an expression of x, y, z too), so problems that differ only in numbers
+    share their compiled forms.
+
+    >>> problem = load_problem("block")                  # or Problem.from_dict({...}, "mine")
+    >>> stiffer = problem.replace({"contact.c_n": 5e4})   # validated again; compiles nothing new
+    """
     name: str
     values: dict = field(repr=False)
     given: frozenset = field(repr=False)
@@ -63,10 +74,12 @@ class Problem:
 
     @property
     def title(self):
+        """The problem's ``title``, or its name when it has none."""
         return self.values.get("title") or self.name
 
     @property
     def parameters(self):
+        """The ``[parameters]`` table: named numbers usable in every expression."""
         return self.values["parameters"]
 
     @property
@@ -212,7 +225,9 @@ def read_toml(path):
 
 
 def load_problem(source, overrides=(), name=None):
-    """A Problem from a built-in case name or a problem file, with ``--set``-style overrides.
+    """A :class:`Problem` from a built-in case name (:func:`case_names`) or a TOML problem file, with
+    ``--set``-style overrides ``"section.key=value"`` (TOML syntax for the value). Raises
+    :class:`InputError` naming the key for a bad or unknown entry.
 
     >>> problem = load_problem("block", ["contact.m_n=2"])
     """
