@@ -200,5 +200,6 @@ if comm.rank == 0:
     right.loglog(dofs, eta[0] * (dofs / dofs[0]) ** (-1 / 3), "k-", lw=0.8, label="∝ N^(−1/3)")
     right.set_xlabel("degrees of freedom N")
     right.legend(fontsize=8)
-    fig.savefig(out_dir / "block_3d.png", dpi=120)  # stays open: a notebook shows it here
+    fig.savefig(out_dir / "block_3d.png", dpi=120)
+    plt.show(block=False)  # in a notebook: the figure, here; a script wrote the file
     say(f"wrote {out_dir / 'block_3d.png'}")

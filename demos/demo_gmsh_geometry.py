@@ -262,5 +262,6 @@ if comm.rank == 0:
         ax.set_title(title)
         ax.set_aspect("equal")
     fig.colorbar(shown, ax=axes[1], shrink=0.8)
-    fig.savefig(out_dir / "plate.png", dpi=130)  # stays open: a notebook shows it here
+    fig.savefig(out_dir / "plate.png", dpi=130)
+    plt.show(block=False)  # in a notebook: the figure, here; a script wrote the file
     say(f"wrote {out_dir / 'plate.png'}")

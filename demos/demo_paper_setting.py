@@ -224,18 +224,19 @@ def draw_indicators(estimate, path):
         masked.x.array[:] = np.where(field.x.array > 0, field.x.array, np.nan)  # 0: not on this part
         draw(ax, masked, f"η_{i}K  (η_{i} = {estimate.totals[f'eta_{i}']:.3g})", norm)
     if comm.rank == 0:
-        fig.savefig(path, dpi=120)  # the figure stays open: a notebook shows it below the cell
+        fig.savefig(path, dpi=120)
+        plt.show(block=False)  # in a notebook: the figure, here; a script wrote the file
         say(f"wrote {path}")
 
 
 draw_indicators(est, out_dir / "indicators.png")
 
 # %% [markdown]
-# What the pictures show (`indicators.png`): η_1 (the weight, h_K‖f_K‖) is the same small value everywhere on a uniform
-# mesh; η_2, the stress jumps, dominates and peaks at the two left corners, where the clamp meets a free
-# or a contact edge and σ is singular; η_3 and η_4 live on the contact cells only: the tangential
-# stress the law forbids, and the mismatch between the discrete pressure $c_n(u_{hn})_+^{m_n}$ and
-# $-\sigma_n(u_h)$ computed from the displacement.
+# What the pictures show (`indicators.png`): η_1 (the weight, h_K‖f_K‖) is the same small value
+# everywhere on a uniform mesh; η_2, the stress jumps, dominates and peaks at the two left corners,
+# where the clamp meets a free or a contact edge and σ is singular; η_3 and η_4 live on the contact
+# cells only: the tangential stress the law forbids, and the mismatch between the discrete pressure
+# $c_n(u_{hn})_+^{m_n}$ and $-\sigma_n(u_h)$ computed from the displacement.
 #
 # ## One adaptive step by hand
 #
@@ -340,6 +341,7 @@ if comm.rank == 0:
     ax.set_ylabel("estimator")
     ax.legend(fontsize=8)
     fig.savefig(out_dir / "convergence.png", dpi=120)
+    plt.show(block=False)  # in a notebook: the figure, here; a script wrote the file
     say(f"wrote {out_dir / 'convergence.png'}")
 
 # %% [markdown]

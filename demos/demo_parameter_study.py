@@ -203,7 +203,8 @@ if comm.rank == 0:
     right.set_ylabel("largest penetration δ")
     left.legend()
     right.legend(fontsize=8)
-    fig.savefig(out_dir / "parameter_study.png", dpi=120)  # stays open: a notebook shows it here
+    fig.savefig(out_dir / "parameter_study.png", dpi=120)
+    plt.show(block=False)  # in a notebook: the figure, here; a script wrote the file
     say(f"wrote {out_dir / 'parameter_study.png'}")
 
 # %% [markdown]

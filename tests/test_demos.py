@@ -10,7 +10,6 @@ means they held.
 import os
 import re
 import subprocess
-from pathlib import Path
 
 import pytest
 
