@@ -9,6 +9,7 @@ means they held.
 """
 import os
 import re
+import signal
 import subprocess
 
 import pytest
@@ -23,16 +24,26 @@ EXPECTED = {
     "demo_gmsh_geometry.py": (6, ["plate.png", "plate.msh"]),
     "demo_3d.py": (4, ["block_3d.png"]),
 }
-TIMEOUT = 600
+TIMEOUT = 400  # seconds for one run; a hang fails the test instead of blocking the suite
 
 
 def run_demo(name, nprocs, out_dir):
-    """``mpirun -n NPROCS python3 -W error demos/NAME --small --out OUT_DIR`` from a scratch directory."""
+    """``mpirun -n NPROCS python3 -W error -m mpi4py demos/NAME --small --out OUT_DIR`` from a scratch
+    directory. ``-m mpi4py`` aborts every rank when one raises, so a failed check cannot leave the other
+    ranks waiting; a run that still does not end in TIMEOUT is killed with its process group."""
     mpirun = ["mpirun", "-n", str(nprocs)] + (["--allow-run-as-root"] if os.geteuid() == 0 else [])
+    command = mpirun + [PYTHON, "-W", "error", "-m", "mpi4py", str(DEMOS / name), "--small", "--out", str(out_dir)]
     env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
     env.pop("NC_DEMO_OUT", None)
-    return subprocess.run(mpirun + [PYTHON, "-W", "error", str(DEMOS / name), "--small", "--out", str(out_dir)],
-                          cwd=out_dir, env=env, capture_output=True, text=True, timeout=TIMEOUT)
+    proc = subprocess.Popen(command, cwd=out_dir, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=TIMEOUT)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"{name} on {nprocs} rank(s) did not end within {TIMEOUT} s:\n{out[-2000:]}\n{err[-2000:]}")
+    return subprocess.CompletedProcess(command, proc.returncode, out, err)
 
 
 def test_every_demo_is_tested():
