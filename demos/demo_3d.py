@@ -39,12 +39,6 @@
 # (jupytext). `--small` / `NC_DEMO_SMALL=1`: coarse meshes and few levels.
 
 # %%
-import os
-import sys
-import tempfile
-import warnings
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 from dolfinx import mesh as dmesh
@@ -52,30 +46,10 @@ from mpi4py import MPI
 
 import nc_dolfinx as nc
 
-# Two warnings of the stack, not of this demo, would stop it under `python3 -W error`: FFCx 0.5 leaves a
-# file open when it compiles a new form, and pyparsing, seeing -W, switches on self-checks of grammars
-# that matplotlib's mathtext grammar (tick labels such as 10⁻²) trips.
-warnings.filterwarnings("ignore", message=r"unclosed file .*libffcx_", category=ResourceWarning)
-warnings.filterwarnings("ignore", message=r"warn_\w+: |Forward defined here", category=UserWarning)
+from support import SMALL, check, output_directory, say  # the demos' plumbing: options, printing, checks
 
 comm = MPI.COMM_WORLD
-SMALL = "--small" in sys.argv or os.environ.get("NC_DEMO_SMALL") == "1"
-out = sys.argv[sys.argv.index("--out") + 1] if "--out" in sys.argv else os.environ.get("NC_DEMO_OUT")
-out_dir = Path(out or comm.bcast(tempfile.mkdtemp(prefix="nc_demo_") if comm.rank == 0 else None))
-if comm.rank == 0:
-    out_dir.mkdir(parents=True, exist_ok=True)
-
-
-def say(text):
-    if comm.rank == 0:
-        print(text, flush=True)
-
-
-def check(condition, text):
-    """Stop the demo if a property it computed does not hold; say so if it does."""
-    if not condition:
-        raise AssertionError(text)
-    say(f"checked: {text}")
+out_dir = output_directory()
 
 
 # %% [markdown]

@@ -33,45 +33,21 @@
 
 # %%
 import math
-import os
-import sys
-import tempfile
-import warnings
-from pathlib import Path
 
 import gmsh
 import matplotlib.pyplot as plt
 import numpy as np
 import ufl
 from dolfinx import fem
+from matplotlib.colors import LogNorm
 from mpi4py import MPI
 
 import nc_dolfinx as nc
 
-# Two warnings of the stack, not of this demo, would stop it under `python3 -W error`: FFCx 0.5 leaves a
-# file open when it compiles a new form, and pyparsing, seeing -W, switches on self-checks of grammars
-# that matplotlib's mathtext grammar (tick labels such as 10⁻²) trips.
-warnings.filterwarnings("ignore", message=r"unclosed file .*libffcx_", category=ResourceWarning)
-warnings.filterwarnings("ignore", message=r"warn_\w+: |Forward defined here", category=UserWarning)
+from support import SMALL, check, draw_cells, output_directory, say  # the demos' plumbing: options, printing, checks
 
 comm = MPI.COMM_WORLD
-SMALL = "--small" in sys.argv or os.environ.get("NC_DEMO_SMALL") == "1"
-out = sys.argv[sys.argv.index("--out") + 1] if "--out" in sys.argv else os.environ.get("NC_DEMO_OUT")
-out_dir = Path(out or comm.bcast(tempfile.mkdtemp(prefix="nc_demo_") if comm.rank == 0 else None))
-if comm.rank == 0:
-    out_dir.mkdir(parents=True, exist_ok=True)
-
-
-def say(text):
-    if comm.rank == 0:
-        print(text, flush=True)
-
-
-def check(condition, text):
-    """Stop the demo if a property it computed does not hold; say so if it does."""
-    if not condition:
-        raise AssertionError(text)
-    say(f"checked: {text}")
+out_dir = output_directory()
 
 
 # %% [markdown]
@@ -237,30 +213,12 @@ say(f"η ∝ N^{slope:.3f} over the last three levels (optimal: N^-0.5)")
 # at the corners of the clamp, around the hole and along the inclusion.
 
 # %%
-def gather_cells(field):
-    """(vertices (n, 3, 2), values (n,)) of a DG0 field on a triangle mesh, all ranks' cells on rank 0."""
-    msh = field.function_space.mesh
-    n_owned = msh.topology.index_map(2).size_local
-    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_owned]
-    values = field.x.array[field.function_space.dofmap.list.array[:n_owned]]
-    parts = msh.comm.gather((msh.geometry.x[nodes][:, :, :2], values), root=0)
-    if parts is None:
-        return None, None
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-
-
-pictures = [gather_cells(final.solution.domain.region), gather_cells(final.estimate.fields["eta"])]
+fig, axes = plt.subplots(1, 2, figsize=(12, 3.6), constrained_layout=True)
+draw_cells(axes[0], final.solution.domain.region, f"the final mesh: plate (grey) and inclusion (red), "
+           f"{final.row['cells']} cells", cmap="Pastel1", edgecolors="k", linewidth=0.05)
+shown = draw_cells(axes[1], final.estimate.fields["eta"], "η_K", norm=LogNorm(), cmap="viridis",
+                   edgecolors="w", linewidth=0.05)
 if comm.rank == 0:
-    from matplotlib.colors import LogNorm
-    fig, axes = plt.subplots(1, 2, figsize=(12, 3.6), constrained_layout=True)
-    titles = [f"the final mesh: plate (grey) and inclusion (red), {len(pictures[0][1])} cells", "η_K"]
-    for ax, (vertices, values), title, norm, cmap in zip(axes, pictures, titles, [None, LogNorm()],
-                                                         ["Pastel1", "viridis"]):
-        triangles = np.arange(3 * len(values)).reshape(-1, 3)
-        shown = ax.tripcolor(vertices[:, :, 0].ravel(), vertices[:, :, 1].ravel(), triangles, facecolors=values,
-                             norm=norm, cmap=cmap, edgecolors="k" if norm is None else "w", linewidth=0.05)
-        ax.set_title(title)
-        ax.set_aspect("equal")
     fig.colorbar(shown, ax=axes[1], shrink=0.8)
     fig.savefig(out_dir / "plate.png", dpi=130)
     plt.show(block=False)  # in a notebook: the figure, here; a script wrote the file

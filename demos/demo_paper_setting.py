@@ -50,12 +50,6 @@
 # directory.
 
 # %%
-import os
-import sys
-import tempfile
-import warnings
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 import ufl
@@ -65,30 +59,10 @@ from mpi4py import MPI
 
 import nc_dolfinx as nc
 
-# Two warnings of the stack, not of this demo, would stop it under `python3 -W error`: FFCx 0.5 leaves a
-# file open when it compiles a new form, and pyparsing, seeing -W, switches on self-checks of grammars
-# that matplotlib's mathtext grammar (tick labels such as 10⁻²) trips.
-warnings.filterwarnings("ignore", message=r"unclosed file .*libffcx_", category=ResourceWarning)
-warnings.filterwarnings("ignore", message=r"warn_\w+: |Forward defined here", category=UserWarning)
+from support import SMALL, check, draw_cells, output_directory, say  # the demos' plumbing: options, printing, checks
 
 comm = MPI.COMM_WORLD
-SMALL = "--small" in sys.argv or os.environ.get("NC_DEMO_SMALL") == "1"
-out = sys.argv[sys.argv.index("--out") + 1] if "--out" in sys.argv else os.environ.get("NC_DEMO_OUT")
-out_dir = Path(out or comm.bcast(tempfile.mkdtemp(prefix="nc_demo_") if comm.rank == 0 else None))
-if comm.rank == 0:
-    out_dir.mkdir(parents=True, exist_ok=True)
-
-
-def say(text):
-    if comm.rank == 0:
-        print(text, flush=True)
-
-
-def check(condition, text):
-    """Stop the demo if a property it computed does not hold; say so if it does."""
-    if not condition:
-        raise AssertionError(text)
-    say(f"checked: {text}")
+out_dir = output_directory()
 
 
 # %% [markdown]
@@ -184,34 +158,10 @@ say("  ".join(f"{name} = {value:.4g}" for name, value in est.totals.items()))
 
 
 # %% [markdown]
-# To draw a DG0 field we gather each owned cell's three vertices and its value on rank 0 (a DG0 field
-# has one dof per cell) and colour the triangles with matplotlib's `tripcolor`.
+# To draw a DG0 field, `draw_cells` (in `support.py`, next to the demos) gathers each owned cell's
+# three vertices and its value on rank 0 and colours the triangles with matplotlib's `tripcolor`.
 
 # %%
-def gather_cells(field):
-    """(vertices (n, 3, 2), values (n,)) of a DG0 field on a triangle mesh, all ranks' cells on rank 0."""
-    msh = field.function_space.mesh
-    n_owned = msh.topology.index_map(2).size_local
-    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_owned]
-    values = field.x.array[field.function_space.dofmap.list.array[:n_owned]]
-    parts = msh.comm.gather((msh.geometry.x[nodes][:, :, :2], values), root=0)
-    if parts is None:
-        return None, None
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-
-
-def draw(ax, field, title, norm=None):
-    vertices, values = gather_cells(field)
-    if comm.rank != 0:
-        return
-    triangles = np.arange(3 * len(values)).reshape(-1, 3)
-    picture = ax.tripcolor(vertices[:, :, 0].ravel(), vertices[:, :, 1].ravel(), triangles,
-                           facecolors=values, norm=norm, cmap="viridis", edgecolors="w", linewidth=0.1)
-    ax.set_title(title)
-    ax.set_aspect("equal")
-    ax.figure.colorbar(picture, ax=ax, shrink=0.8)
-
-
 def draw_indicators(estimate, path):
     """η_1 … η_4 on a common log colour scale (cells where an indicator is 0 are left blank)."""
     largest = max(comm.allreduce(float(estimate.fields[f"eta_{i}"].x.array.max()), MPI.MAX)
@@ -222,7 +172,10 @@ def draw_indicators(estimate, path):
         field = estimate.fields[f"eta_{i}"]
         masked = fem.Function(field.function_space)
         masked.x.array[:] = np.where(field.x.array > 0, field.x.array, np.nan)  # 0: not on this part
-        draw(ax, masked, f"η_{i}K  (η_{i} = {estimate.totals[f'eta_{i}']:.3g})", norm)
+        shown = draw_cells(ax, masked, f"η_{i}K  (η_{i} = {estimate.totals[f'eta_{i}']:.3g})", norm=norm,
+                           cmap="viridis", edgecolors="w", linewidth=0.1)
+        if shown is not None:
+            fig.colorbar(shown, ax=ax, shrink=0.8)
     if comm.rank == 0:
         fig.savefig(path, dpi=120)
         plt.show(block=False)  # in a notebook: the figure, here; a script wrote the file
