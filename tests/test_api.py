@@ -34,6 +34,11 @@ CLI_COMPANIONS = {"output": "results on disk", "log": "progress and compiler log
                   "errors": "the error type a user sees"}
 SCRIPTS = sorted([*ROOT.glob("verification/*.py"), *ROOT.glob("benchmarks/*.py")])
 CLI = ROOT / PACKAGE / "cli.py"
+# Files their owners are rewriting onto the public API (issue 12): while they still use private parts,
+# the test reports them as an expected failure (with the list) instead of failing; once a file is clean
+# its test passes, and its entry here can go.
+PENDING = {"benchmarks/run.py": "the solver engineer (issue 13)",
+           "nc_dolfinx/cli.py": "the front-door engineer (issue 11)"}
 
 # A docstring cites what it implements: the paper (equation, definition, section, remark, theorem, lemma)
 # or the named method. Utilities (files, meshes as containers, logging, errors) need no citation.
@@ -185,15 +190,21 @@ def test_the_scan_finds_private_uses():
                      "output._private"], found
 
 
+def assert_public_only(path, found):
+    name = str(path.relative_to(ROOT))
+    message = f"{name} uses private parts of nc_dolfinx:\n  " + "\n  ".join(found)
+    if found and name in PENDING:
+        pytest.xfail(f"being rewritten by {PENDING[name]}; " + message)
+    assert not found, message
+
+
 @pytest.mark.parametrize("path", SCRIPTS, ids=lambda p: str(p.relative_to(ROOT)))
 def test_script_uses_only_the_public_api(path):
-    found = private_uses(path)
-    assert not found, f"{path.relative_to(ROOT)} uses private parts of nc_dolfinx:\n  " + "\n  ".join(found)
+    assert_public_only(path, private_uses(path))
 
 
 def test_command_line_uses_only_the_public_api():
-    found = private_uses(CLI, inside_package=True)
-    assert not found, "nc_dolfinx/cli.py uses private parts of the package:\n  " + "\n  ".join(found)
+    assert_public_only(CLI, private_uses(CLI, inside_package=True))
 
 
 if __name__ == "__main__":  # list the private uses without pytest
