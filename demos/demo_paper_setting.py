@@ -204,7 +204,7 @@ eta_K = est.fields["eta"].x.array[:domain.mesh.topology.index_map(2).size_local]
 marked_share = comm.allreduce(float(np.sum(eta_K[marked] ** 2)), MPI.SUM) / est.totals["eta"] ** 2
 n_marked = comm.allreduce(len(marked), MPI.SUM)
 say(f"marked {n_marked} of {domain.num_cells()} cells")
-check(marked_share >= theta, f"Dörfler: the marked cells carry {marked_share:.3f} of η² >= θ = {theta}")
+check(marked_share >= theta, f"Dörfler: the marked cells carry {marked_share:.4f} of η² >= θ = {theta}")
 
 # %% [markdown]
 # **REFINE.** `refine` bisects the marked cells (Plaza's algorithm, plus what conformity needs); the
