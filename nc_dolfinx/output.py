@@ -13,6 +13,7 @@ files that every rank writes are gathered (:func:`on_every_rank`), so all ranks 
 one-line error naming the path.
 """
 import csv
+import io
 import json
 import os
 import re
@@ -24,11 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dolfinx import fem, io
-
-from . import forms, physics
 from .errors import InputError
-from .quantities import contact_projection
 
 PROGRAM = "nc_dolfinx"  # summary.json "program": marks a folder --overwrite may empty
 _UMASK = os.umask(0)
@@ -240,10 +237,9 @@ def csv_columns(rows):
 
 def csv_text(rows):
     """CSV of history rows; a list value (the contact force) becomes columns NAME_x, NAME_y[, NAME_z]."""
-    import io as text_io
     flat = [_flatten(row) for row in rows]
     keys = csv_columns(rows)
-    buffer = text_io.StringIO()
+    buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=keys, lineterminator="\n")
     writer.writeheader()
     writer.writerows(flat)
@@ -268,29 +264,3 @@ def _jsonable(value):
     if isinstance(value, Path):
         return str(value)
     raise TypeError(f"not JSON serialisable: {type(value)}")
-
-
-def write_xdmf(comm, path, mesh, functions):
-    """One XDMF file (one mesh) holding the given functions (collective)."""
-    with io.XDMFFile(comm, path, "w") as xdmf:
-        xdmf.write_mesh(mesh)
-        for fn in functions:
-            xdmf.write_function(fn)
-
-
-def postprocess_fields(u, fields):
-    """Stress (3×3: plane strain has σ_zz = λ tr ε), von Mises (DG0) and the nodal contact pressure (P1)."""
-    msh = u.function_space.mesh
-    T = fem.TensorFunctionSpace(msh, ("DG", 0), shape=(3, 3))
-    Q = fem.FunctionSpace(msh, ("DG", 0))
-    stress = _interpolate(T, physics.stress_3x3(u, fields.lmbda, fields.mu), "stress")
-    vm = _interpolate(Q, physics.von_mises(u, fields.lmbda, fields.mu), "von_mises")
-    pressure = contact_projection(forms.contact_pressure(u, fields), fields, "contact_pressure")
-    return [stress, vm, pressure]
-
-
-def _interpolate(space, expr, name):
-    fn = fem.Function(space, name=name)
-    points = space.element.interpolation_points
-    fn.interpolate(fem.Expression(expr, points() if callable(points) else points))
-    return fn

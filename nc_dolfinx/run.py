@@ -13,7 +13,8 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from . import __version__, adaptive, columns, interrupt, output, petsc_options, provenance, reference, vtu
+from . import (__version__, adaptive, columns, interrupt, output, petsc_options, postprocess, provenance,
+               reference, vtu)
 from .errors import InputError
 
 DOUBTFUL_FRACTION = 0.1  # penetration or |u| beyond this part of the body's diameter: warn
@@ -46,15 +47,14 @@ class CaseRun:
             result = adaptive.adapt(self.problem, self.settings, comm=self.comm,
                                     petsc_options=self.cli_options, on_level=self.on_level)
             self.stop_reason, self.reason = result.stop_reason, self.stop_text(result)
-            self.stage_name = "writing the results"
             histories = {self.settings.refine: result.history}
             if self.args.compare_uniform:
                 self.stage_name = "the uniform refinement for comparison"
                 histories["uniform"] = self.compare_uniform(result.history)
             self.stage_name = "writing the results"
             self.history = result.history  # the same rows, now with each level's output time
-            self.write_records("completed")
             self.plot(histories)
+            self.write_records("completed")  # last: "completed" means every file is there
             return result
         except BaseException as err:
             self.stopped(err)
@@ -97,18 +97,18 @@ class CaseRun:
     def write_level(self, level):
         u, est = level.u, level.estimate
         msh = u.function_space.mesh
-        stress, von_mises, pressure = output.postprocess_fields(u, level.fields)
+        stress, von_mises, pressure = postprocess.postprocess_fields(u, level.fields)
         name = f"level_{level.number:02d}"
         n_owned = msh.topology.index_map(msh.topology.dim).size_local
-        region = level.fields.domain.region.x.array[:n_owned].astype(np.int32)
+        region = vtu.dg0_values(level.fields.domain.region, n_owned)[:, 0].astype(np.int32)
         with self.folder.staged() as stage:
             output.on_rank0(self.comm, lambda: (stage / "levels").mkdir(), stage / "levels")
-            output.write_xdmf(self.comm, stage / "levels" / f"{name}.xdmf", msh, [u, *est.fields.values()])
+            postprocess.write_xdmf(self.comm, stage / "levels" / f"{name}.xdmf", msh, [u, *est.fields.values()])
             vtu.write(self.comm, stage / "levels", name, {"displacement": u, "contact_pressure": pressure},
                       {"stress": stress, "von_mises": von_mises, **est.fields}, {"region": region})
             if level.stop_reason:  # the last level: the final solution with every field
-                output.write_xdmf(self.comm, stage / "solution.xdmf", msh,
-                                  [u, stress, von_mises, pressure, *est.fields.values()])
+                postprocess.write_xdmf(self.comm, stage / "solution.xdmf", msh,
+                                       [u, stress, von_mises, pressure, *est.fields.values()])
         if level.stop_reason:
             self.solution_level = level.number
         self.steps.append((level.number, f"levels/{name}.pvtu"))

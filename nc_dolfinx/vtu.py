@@ -33,7 +33,7 @@ def piece_data(point_functions, cell_functions):
     points = space.tabulate_dof_coordinates()[used]
     point_data = {name: _pad_vector(_p1_values(fn, nodes, used), msh.geometry.dim)
                   for name, fn in point_functions.items()}
-    cell_data = {name: _dg0_values(fn, n_owned) for name, fn in cell_functions.items()}
+    cell_data = {name: dg0_values(fn, n_owned) for name, fn in cell_functions.items()}
     return points, cells, point_data, cell_data
 
 
@@ -47,7 +47,8 @@ def _p1_values(fn, nodes, used):
     return values[used]
 
 
-def _dg0_values(fn, n_owned):
+def dg0_values(fn, n_owned):
+    """Values (n_owned, block size) of a DG0 function on the owned cells."""
     space = fn.function_space
     bs = space.dofmap.index_map_bs
     dofs = space.dofmap.list.array.reshape(-1, space.dofmap.dof_layout.num_dofs)[:n_owned, 0]
