@@ -191,9 +191,8 @@ def prepare_runs(args, cli_options, comm, say):
     runs, outs = [], set()
     for case in names:
         problem = problem_module.load_problem(cases.resolve(case), args.set)
-        changes = {key: schema.convert(key, value, option) for key, value, option in
-                   (("solver.preset", args.preset, "--preset"), ("solver.load_steps", args.load_steps, "--load-steps"))
-                   if value is not None}
+        given = (("solver.preset", args.preset, "--preset"), ("solver.load_steps", args.load_steps, "--load-steps"))
+        changes = {key: schema.convert(key, value, option) for key, value, option in given if value is not None}
         if changes:
             problem = problem.replace(changes)
         settings = adaptive.AdaptSettings.from_problem(
@@ -201,7 +200,10 @@ def prepare_runs(args, cli_options, comm, say):
             max_dofs=args.max_dofs, tol=args.tol, rtol=args.rtol)
         if args.compare_uniform and settings.refine != "adaptive":
             raise InputError(f"--compare-uniform compares with adaptive refinement, but refine = '{settings.refine}'")
-        out = Path(args.out) / problem.name if (args.out and len(names) > 1) else Path(args.out or f"results/{problem.name}")
+        if args.out and len(names) > 1:
+            out = Path(args.out) / problem.name
+        else:
+            out = Path(args.out or f"results/{problem.name}")
         if out.absolute() in outs:
             raise InputError(f"two cases would write to '{out}' (case '{case}' given twice?)")
         outs.add(out.absolute())
