@@ -53,7 +53,8 @@ from . import forms, physics
 from .estimator_geometry import cell_geometry, facet_diameters, owned_values_with_ghosts, patch_sum, slot_tags
 from .estimator_kink import law_residual_squared
 
-__all__ = ["NAMES", "CELL_DEGREE", "CONTACT_DEGREE", "CONTACT_DEGREE_SPLIT", "Estimate", "assemble_cellwise", "estimate", "patch_sum"]
+__all__ = ["NAMES", "CELL_DEGREE", "CONTACT_DEGREE", "CONTACT_DEGREE_SPLIT", "Estimate", "assemble_cellwise",
+           "estimate", "patch_sum"]
 
 NAMES = ("eta_1", "eta_2", "eta_3", "eta_4", "eta", "zeta")
 CELL_DEGREE = 8
@@ -93,39 +94,22 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     """
     start = time.perf_counter()
     msh, comm = fields.domain.mesh, fields.domain.comm
-    tdim, gdim = msh.topology.dim, msh.geometry.dim
     if split_kinks is None:
-        split_kinks = tdim > 2  # faces; edges keep their verified unsplit rule
+        split_kinks = msh.topology.dim > 2  # faces; edges keep their verified unsplit rule
     if contact_degree is None:
         contact_degree = CONTACT_DEGREE_SPLIT if split_kinks else CONTACT_DEGREE
     Q = fem.FunctionSpace(msh, ("DG", 0))
     # One vector DG0 space for the assemblies of several quantities at once (Neumann slots need the most).
-    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=2 * gdim + 2)
-    w, wv = ufl.TestFunction(Q), ufl.TestFunction(Qv)
+    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=2 * msh.geometry.dim + 2)
+    w = ufl.TestFunction(Q)
     h = ufl.CellDiameter(msh)
     n = ufl.FacetNormal(msh)
     s = fields.sigma(u)
-    f = fields.f
-    dx = ufl.dx(metadata={"quadrature_degree": cell_degree})
     dS = ufl.dS
     area, h_K = cell_geometry(msh)
 
-    # Cells: ∫_K f, ∫_K |f|²; contact facets: σ_t and the compliance-law residual
-    # c_n (u_hn − g_0)_+^{m_n} + σ_n(u_h); symmetry facets: σ_t (one assembly).
-    sigma_t = physics.tangential_stress(s, n)
-    dC = forms.contact_measure(fields, contact_degree)
-    if split_kinks:
-        law_squared = law_residual_squared(u, fields, n)
-    else:
-        law_squared = (forms.contact_pressure(u, fields, n) + physics.normal_stress(s, n)) ** 2
-    cell_form = sum((f[i] * wv[i] for i in range(1, gdim)), f[0] * wv[0]) + ufl.inner(f, f) * wv[gdim]
-    form = cell_form * dx + h * (ufl.inner(sigma_t, sigma_t) * wv[gdim + 1] + law_squared * wv[gdim + 2]) * dC
-    symmetry = tuple(fields.symmetry_axes)
-    if symmetry:
-        form += h * ufl.inner(sigma_t, sigma_t) * wv[gdim + 3] * fields.ds(symmetry)
-    values = assemble_cellwise(form, Qv)
-    f_int, f_sq = values[:, :gdim], values[:, gdim]
-    eta_3_sq, eta_4_sq = values[:, gdim + 1], values[:, gdim + 2]
+    f_int, f_sq, eta_3_sq, eta_4_sq, symmetry_sq = _cell_and_boundary_terms(
+        u, fields, Qv, contact_degree, cell_degree, split_kinks)
     f_mean_sq = np.sum(f_int ** 2, axis=1) / area  # ‖f_K‖_K² = |∫_K f|² / |K|
     eta_1_sq = h_K ** 2 * f_mean_sq
     osc_f = np.maximum(f_sq - f_mean_sq, 0.0)
@@ -133,8 +117,8 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     # Interior facets: the full jump, each side weighted by its own h_K.
     jump = s("+") * n("+") + s("-") * n("-")
     eta_2_sq = assemble_cellwise(ufl.inner(jump, jump) * (h("+") * w("+") + h("-") * w("-")) * dS, Q)[:, 0]
-    if symmetry:
-        eta_2_sq += values[:, gdim + 3]
+    if symmetry_sq is not None:
+        eta_2_sq += symmetry_sq
 
     # Neumann facets, one slot at a time: per-facet means of g and of σν − g.
     eta_2_neumann, osc_g = _neumann_facet_terms(fields, s, n, Qv, cell_degree)
@@ -149,6 +133,35 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
         out[name] = owned_values_with_ghosts(Q, np.sqrt(np.maximum(squares[name], 0.0)), name)
         totals[name] = float(np.sqrt(comm.allreduce(float(np.sum(squares[name])), MPI.SUM)))
     return Estimate(out, totals, time.perf_counter() - start, squares["eta"])
+
+
+def _against(vector, wv, first):
+    """Σ_i vector_i wv_{first+i}: the components of ``vector`` into consecutive slots of a DG0 test function."""
+    return sum((vector[i] * wv[first + i] for i in range(1, len(vector))), vector[0] * wv[first])
+
+
+def _cell_and_boundary_terms(u, fields, Qv, contact_degree, cell_degree, split_kinks):
+    """One assembly, per owned cell: ∫_K f, ∫_K |f|²; over its contact facets Σ h_K ‖σ_t‖²_F (η_3K²) and
+    Σ h_K ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F (η_4K²); over its symmetry facets Σ h_K ‖σ_t‖²_F (None if
+    the problem has no symmetry plane)."""
+    msh, gdim = fields.domain.mesh, fields.domain.mesh.geometry.dim
+    wv = ufl.TestFunction(Qv)
+    h, n, s, f = ufl.CellDiameter(msh), ufl.FacetNormal(msh), fields.sigma(u), fields.f
+    sigma_t = physics.tangential_stress(s, n)
+    if split_kinks:
+        law_squared = law_residual_squared(u, fields, n)
+    else:
+        law_squared = (forms.contact_pressure(u, fields, n) + physics.normal_stress(s, n)) ** 2
+    dx = ufl.dx(metadata={"quadrature_degree": cell_degree})
+    dC = forms.contact_measure(fields, contact_degree)
+    form = (_against(f, wv, 0) + ufl.inner(f, f) * wv[gdim]) * dx \
+        + h * (ufl.inner(sigma_t, sigma_t) * wv[gdim + 1] + law_squared * wv[gdim + 2]) * dC
+    symmetry = tuple(fields.symmetry_axes)
+    if symmetry:
+        form += h * ufl.inner(sigma_t, sigma_t) * wv[gdim + 3] * fields.ds(symmetry)
+    values = assemble_cellwise(form, Qv)
+    return (values[:, :gdim], values[:, gdim], values[:, gdim + 1], values[:, gdim + 2],
+            values[:, gdim + 3] if symmetry else None)
 
 
 def _neumann_facet_terms(fields, s, n, Qv, degree):
@@ -171,15 +184,14 @@ def _neumann_facet_terms(fields, s, n, Qv, degree):
         form = 0
         for k, group in enumerate(groups):
             g = fields.g.get(group, zero)
-            r = s * n - g
-            integrand = sum((r[i] * wv[i] for i in range(1, gdim)), r[0] * wv[0])
-            integrand += sum((g[i] * wv[gdim + i] for i in range(gdim)), 0)
+            integrand = _against(s * n - g, wv, 0) + _against(g, wv, gdim)
             form += (integrand + ufl.inner(g, g) * wv[2 * gdim] + wv[2 * gdim + 1]) * ds(1 + (tdim + 1) * k + j)
         values = assemble_cellwise(form, Qv)
         measure = values[:, 2 * gdim + 1]
         cells = np.flatnonzero(measure > 0)
         F = measure[cells]
         eta[cells] += np.sum(values[cells, :gdim] ** 2, axis=1) / F
-        g_norm_sq = np.maximum(values[cells, 2 * gdim] - np.sum(values[cells, gdim:2 * gdim] ** 2, axis=1) / F, 0.0)
+        g_mean_sq = np.sum(values[cells, gdim:2 * gdim] ** 2, axis=1) / F  # |∫_F g|² / |F|
+        g_norm_sq = np.maximum(values[cells, 2 * gdim] - g_mean_sq, 0.0)
         osc[cells] += facet_diameters(msh, cells, j) * g_norm_sq
     return eta, osc

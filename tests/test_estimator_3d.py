@@ -16,13 +16,14 @@ J = σν − g_F with g_F the mean of g over that face; symmetry faces add h_K �
 σ_t = σν − σ_n ν; ω_K the cells sharing a vertex with K.
 """
 import itertools
-import json
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from conftest import ROOT, run
+from conftest import ROOT
+from test_estimator import (assert_close, computed_by_cell, prescribe, run_for_result,  # any dimension
+                            triangle_rule, write_msh)
 from dolfinx import fem, mesh as dmesh
 from nc_dolfinx import Problem, bind, build_domain
 from nc_dolfinx.estimator import NAMES, estimate, patch_sum
@@ -46,18 +47,6 @@ def evaluate(text, P):
 
 def evaluate_vector(texts, P):
     return np.stack([evaluate(t, P) for t in texts], axis=1)
-
-
-def triangle_rule(X, n=N_TRI):
-    """Collapsed Gauss–Legendre points (n², 3) and weights on the triangle X (3, 3)."""
-    s, w = np.polynomial.legendre.leggauss(n)
-    a, wa = 0.5 * (s + 1), 0.5 * w
-    xi, t = np.meshgrid(a, a, indexing="ij")
-    eta = t * (1 - xi)
-    weights = (wa[:, None] * wa[None, :] * (1 - xi)).ravel()
-    area = 0.5 * np.linalg.norm(np.cross(X[1] - X[0], X[2] - X[0]))
-    points = X[0] + xi.ravel()[:, None] * (X[1] - X[0]) + eta.ravel()[:, None] * (X[2] - X[0])
-    return points, 2 * area * weights
 
 
 def tetrahedron_rule(X, n=N_TET):
@@ -139,26 +128,6 @@ def side_of(grid, face):
     raise AssertionError(f"face {face} is on no side")
 
 
-def write_msh(path, points, tets, face_groups):
-    """A gmsh 2.2 ASCII file: a physical surface per group name, one physical volume 'body'."""
-    names = sorted(set(face_groups.values()))
-    phys = {name: i + 1 for i, name in enumerate(names)}
-    body = len(names) + 1
-    lines = ["$MeshFormat", "2.2 0 8", "$EndMeshFormat", "$PhysicalNames", str(len(names) + 1)]
-    lines += [f'2 {phys[name]} "{name}"' for name in names] + [f'3 {body} "body"', "$EndPhysicalNames"]
-    lines += ["$Nodes", str(len(points))]
-    lines += [f"{i + 1} {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(points)] + ["$EndNodes"]
-    lines += ["$Elements", str(len(face_groups) + len(tets))]
-    k = 0
-    for face, name in face_groups.items():
-        k += 1
-        lines.append(f"{k} 2 2 {phys[name]} {phys[name]} " + " ".join(str(v + 1) for v in face))
-    for tet in tets:
-        k += 1
-        lines.append(f"{k} 4 2 {body} {body} " + " ".join(str(v + 1) for v in tet))
-    path.write_text("\n".join(lines + ["$EndElements", ""]))
-
-
 # --- the independent computation -----------------------------------------------------------------
 
 
@@ -191,7 +160,7 @@ def law_integral(points, face, U, nu, sigma_n, spec, split, n=N_TRI):
         parts = [p for p in (clip(list(X), phi_v), clip(list(X), -phi_v)) if len(p) >= 3]
         rules = [polygon_rule(p, n) for p in parts]
     else:
-        rules = [triangle_rule(X)]
+        rules = [triangle_rule(X, N_TRI)]
     total = 0.0
     for P, w in rules:
         E = X[1:] - X[0]
@@ -230,7 +199,7 @@ def hand_estimator(points, grid, tets, spec, U, split=False, n_face=N_TRI):
         sigma_n = traction @ nu
         sigma_t = traction - sigma_n * nu
         if role == "neumann":
-            P, w = triangle_rule(X)
+            P, w = triangle_rule(X, N_TRI)
             g = evaluate_vector(spec["g"].get(group, ["0", "0", "0"]), P)
             g_F = w @ g / area
             sq["eta_2"][K] += h[K] * np.sum((traction - g_F) ** 2) * area
@@ -301,30 +270,6 @@ def make_case(tmp_path, data=CASE):
     return fields, V, points, grid, tets, spec_of(data, roles)
 
 
-def computed_by_cell(est, msh, centroids):
-    """The estimator's DG0 values reordered to our cells (matched by centroids)."""
-    n = msh.topology.index_map(3).size_local
-    assert n == len(centroids)
-    mid = dmesh.compute_midpoints(msh, 3, np.arange(n, dtype=np.int32))
-    dist = np.linalg.norm(mid[None, :, :] - centroids[:, None, :], axis=2)
-    order = np.argmin(dist, axis=1)
-    assert np.all(dist[np.arange(len(centroids)), order] < 1e-12), "the tetrahedralisations differ"
-    assert len(set(order)) == n
-    return {name: est.fields[name].x.array[order] for name in NAMES}
-
-
-def assert_close(actual, expected, rtol=RTOL, what=""):
-    scale = max(np.max(np.abs(expected)), 1e-300)
-    err = np.max(np.abs(actual - expected)) / scale
-    assert np.allclose(actual, expected, rtol=rtol, atol=rtol * scale), f"{what}: relative error {err:.3e}"
-
-
-def prescribe(V, u_of_x):
-    u = fem.Function(V)
-    u.interpolate(u_of_x)
-    return u
-
-
 def contact_phi(points, grid, tets, spec, U):
     """u_hn − g_0 at the three vertices of every contact face."""
     centroid = points[tets].mean(axis=1)
@@ -370,7 +315,8 @@ def test_indicators_match_hand_computation(tmp_path):
     for name in ("eta_1", "eta_2", "zeta"):  # every indicator is exercised
         assert np.all(expected[name] > 0.02 * expected[name].max()), name
     contact_cells = np.count_nonzero(expected["eta_4"])
-    assert contact_cells >= 8 and np.count_nonzero(expected["eta_3"] > 1e-3 * expected["eta_3"].max()) == contact_cells
+    assert contact_cells >= 8
+    assert np.count_nonzero(expected["eta_3"] > 1e-3 * expected["eta_3"].max()) == contact_cells
 
 
 def test_neumann_means_are_per_face(tmp_path):
@@ -382,7 +328,7 @@ def test_neumann_means_are_per_face(tmp_path):
     K, = [K for K, s in neumann_faces_per_cell(grid, tets, spec).items() if set(s) == {"front", "top", "right"}]
     expected, centroids, info = hand_estimator(points, grid, tets, spec, U)
     faces = [f for f, cells in faces_of(tets).items() if cells == [K] and side_of(grid, f) in ("front", "top")]
-    rules = [triangle_rule(points[list(f)]) for f in faces]
+    rules = [triangle_rule(points[list(f)], N_TRI) for f in faces]
     g = [evaluate_vector(spec["g"][side_of(grid, f)], P) for f, (P, _) in zip(faces, rules)]
     g_union = sum(w @ gi for (_, w), gi in zip(rules, g)) / sum(w.sum() for _, w in rules)
     centroid = points[tets[K]].mean(axis=0)
@@ -495,11 +441,7 @@ def test_symmetry_faces(tmp_path):
 
 
 def run_parallel(nprocs):
-    proc = run([ROOT / "tests" / "mpi" / "estimator_cells.py"], nprocs, timeout=300)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
-    assert len(line) == 1, proc.stdout[-3000:]
-    result = json.loads(line[0][len("RESULT "):])
+    result = run_for_result(ROOT / "tests" / "mpi" / "estimator_cells.py", nprocs)
     rows = np.array(result["rows"])
     keys = [tuple(k) for k in np.round(rows[:, :3], 8)]
     assert len(set(keys)) == len(keys) == result["cells"]
