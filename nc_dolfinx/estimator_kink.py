@@ -60,8 +60,8 @@ def law_residual_squared(u, fields, n):
     grad_u = ufl.grad(u)
     sigma_n = normal_stress(fields.sigma(u), n)
 
-    def at(expression, y):
-        return ufl.replace(expression, {x: y})
+    def at(expression, y):  # the expression (of x) evaluated at the point y
+        return ufl.replace(ufl.as_ufl(expression), {x: y})
 
     def phi(y):
         return ufl.dot(u + grad_u * (y - x), n) - at(fields.gap, y)
