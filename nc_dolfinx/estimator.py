@@ -15,10 +15,11 @@ in 3D), ω_K the cells sharing a vertex with K.
 
 Symmetry facets (an extension of Definition 5). On a symmetry plane u·ν = 0 and the tangential traction
 vanishes; the normal traction is the unknown reaction, so the residual is σ_t(u_h) alone. In the proof of
-Theorem 6 the boundary term of such a facet is ∫_F σ_t(u_h)·(u − v_h)_t (the test functions have no normal
-component on the plane), bounded exactly like the σ_t term on Γ_C: h_K ‖σ_t‖_F² joins η_2K. Equivalently,
-mirroring the body across the plane makes F interior, with the jump [σν] = 2σ_t (tangential) and 0 (normal):
-the same term up to the constant.
+Theorem 6 the boundary term of such a facet is ∫_F σ(u_h)ν·(u − v_h) = ∫_F σ_t(u_h)·(u − v_h), since
+(u − v_h)·ν = 0 there (the plane is normal to a coordinate axis, so π_h of (17) can treat that displacement
+component as Dirichlet data on it); it is bounded like the σ_t term on Γ_C, and h_K ‖σ_t‖_F² joins η_2K.
+Equivalently, mirroring the body across the plane makes F interior, with the jump [σν] = 2σ_t (tangential)
+and 0 (normal): the same term up to the factor 4.
 
 Every quantity is assembled against DG0 test functions over cells, interior facets, Neumann facets and
 contact/symmetry facets (or computed from the vertex coordinates: |K|, h_K, h_F), so it is parallel with
@@ -32,11 +33,10 @@ symmetry planes, one for interior facets, one per Neumann slot below): each has 
 - η_4: the kink of (·)_+ inside a facet. On edges (2D) the residual is integrated unsplit with a Gauss rule
   of degree CONTACT_DEGREE = 24 (13 points; measured ≤ 3.2e-4 relative in η_4K on kinked edges, the
   verified 2D numbers). On faces (3D) an unsplit rule is much worse (degree 24, 112 points: up to 3e-3 on
-  random kinked triangles),
-  so the face is cut along the zero set of u_hn − g_0 (:mod:`.estimator_kink`) and a rule of degree
-  CONTACT_DEGREE_SPLIT = 16 (55 points) is applied on each piece: exact for m_n = 1 with polynomial data and
-  affine g_0 (measured 5e-15), ≤ 2e-7 relative for m_n = 1.5 (tests/test_estimator_3d.py). ``split_kinks``
-  and ``contact_degree`` override both choices.
+  random kinked triangles), so the face is cut along the zero set of u_hn − g_0 (:mod:`.estimator_kink`)
+  and a rule of degree CONTACT_DEGREE_SPLIT = 16 (55 points) is applied on each piece: exact for m_n = 1
+  with polynomial c_n and affine g_0 (measured 5e-15), ≤ 2e-7 relative for m_n = 1.5
+  (tests/test_estimator_3d.py). ``split_kinks`` and ``contact_degree`` override both choices.
 """
 import time
 from dataclasses import dataclass, field
