@@ -26,7 +26,7 @@ contact/symmetry facets (or computed from the vertex coordinates: |K|, h_K, h_F)
 ghost cells on facets only. The integrals are grouped into few assemblies (one for cells, Γ_C and the
 symmetry planes, one for interior facets, one per Neumann slot below): each has a fixed cost.
 - g_F: the means are per *facet*, and a cell may have up to tdim + 1 Neumann facets. Each Neumann facet is
-  tagged with its local index i ∈ {0, …, tdim} in its cell (its *slot*), so ``ds`` over one slot sees at
+  sorted by its local index i ∈ {0, …, tdim} in its cell (its *slot*), so ``ds`` over one slot sees at
   most one facet per cell and the per-facet integrals ∫_F g, ∫_F (σν − g), ∫_F |g|², |F| come out
   separately; slots used on no rank are skipped.
 - the patch sum over ω_K: by inclusion–exclusion over the sub-simplices of K (:func:`patch_sum`).
@@ -167,25 +167,21 @@ def _cell_and_boundary_terms(u, fields, Qv, contact_degree, cell_degree, split_k
 def _neumann_facet_terms(fields, s, n, Qv, degree):
     """Per cell: Σ_F |F| |σν − g_F|² (η_2's Neumann part) and Σ_F h_F ‖g − g_F‖_F² (ζ's Neumann part)."""
     msh = fields.domain.mesh
-    tdim, gdim = msh.topology.dim, msh.geometry.dim
+    gdim = msh.geometry.dim
     groups = fields.ids["neumann"]
     n_owned = Qv.dofmap.index_map.size_local
     eta, osc = np.zeros(n_owned), np.zeros(n_owned)
     if not groups:
         return eta, osc
-    tags = slot_tags(fields.domain, groups)
-    local_slots = np.unique((tags.values - 1) % (tdim + 1))
-    used = msh.comm.allreduce(int(sum(1 << int(i) for i in local_slots)), MPI.BOR)
-    slots = [i for i in range(tdim + 1) if used >> i & 1]
-    ds = ufl.Measure("ds", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": degree})
     wv = ufl.TestFunction(Qv)
     zero = ufl.as_vector([0.0] * gdim)
-    for j in slots:
+    for j, tags in slot_tags(fields.domain, groups).items():
+        ds = ufl.Measure("ds", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": degree})
         form = 0
         for k, group in enumerate(groups):
             g = fields.g.get(group, zero)
             integrand = _against(s * n - g, wv, 0) + _against(g, wv, gdim)
-            form += (integrand + ufl.inner(g, g) * wv[2 * gdim] + wv[2 * gdim + 1]) * ds(1 + (tdim + 1) * k + j)
+            form += (integrand + ufl.inner(g, g) * wv[2 * gdim] + wv[2 * gdim + 1]) * ds(1 + k)
         values = assemble_cellwise(form, Qv)
         measure = values[:, 2 * gdim + 1]
         cells = np.flatnonzero(measure > 0)

@@ -4,9 +4,9 @@
   simplex) of the owned cells.
 - :func:`facet_diameters`: h_F of the facet with a given local index (|E| for an edge, the longest edge of
   a triangular face), for ζ's Neumann part.
-- :func:`slot_tags`: boundary facets tagged by their group *and* their local index in their cell (their
-  *slot*), so that ``ds`` over one slot sees at most one facet per cell and per-facet means come out of a
-  cellwise assembly.
+- :func:`slot_tags`: boundary facets sorted by their local index in their cell (their *slot*), so that
+  ``ds`` over one slot sees at most one facet per cell and per-facet means come out of a cellwise
+  assembly.
 - :func:`patch_sum`: Σ_{K' ⊂ ω_K} o_K' over the vertex patch ω_K, by inclusion–exclusion over the
   sub-simplices of K, parallel with facet ghosts only.
 
@@ -16,6 +16,7 @@ geometry nodes are its vertices (P1 geometry).
 import math
 
 import numpy as np
+from mpi4py import MPI
 
 import dolfinx
 from dolfinx import fem, mesh as dmesh
@@ -60,8 +61,10 @@ def facet_diameters(msh, cells, local_facet):
 
 
 def slot_tags(domain, groups):
-    """Meshtags of the exterior facets in ``groups``: 1 + (tdim + 1)·k + i for the k-th group and local
-    facet index i (the same on every rank that holds the cell, whoever owns the facet)."""
+    """{i: meshtags of the exterior facets in ``groups`` whose local index in their cell is i, tagged 1 + k
+    for the k-th group}, for every i used on some rank (the local index is the same on every rank that
+    holds the cell, whoever owns the facet). The tags do not depend on i, so one compiled form serves
+    every slot."""
     msh, tags = domain.mesh, domain.facet_tags
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim - 1, tdim)
@@ -71,8 +74,10 @@ def slot_tags(domain, groups):
     facets, group_of = tags.indices[mask], tags.values[mask]
     cells = f2c.array[f2c.offsets[facets]]  # an exterior facet has one cell
     local_index = np.argmax(c2f.array.reshape(-1, tdim + 1)[cells] == facets[:, None], axis=1)
-    k = np.searchsorted(groups, group_of)
-    return dmesh.meshtags(msh, tdim - 1, facets, (1 + (tdim + 1) * k + local_index).astype(np.int32))
+    tag = (1 + np.searchsorted(groups, group_of)).astype(np.int32)
+    used = msh.comm.allreduce(int(sum(1 << int(i) for i in np.unique(local_index))), MPI.BOR)
+    return {i: dmesh.meshtags(msh, tdim - 1, facets[local_index == i], tag[local_index == i])
+            for i in range(tdim + 1) if used >> i & 1}
 
 
 def owned_values_with_ghosts(Q, owned_values, name="o"):
