@@ -115,8 +115,9 @@ except nc.InputError as err:
 #
 # `build_domain` makes the level-0 mesh of the `[mesh]` table: a `Domain`, i.e. a DOLFINx mesh with its
 # named boundary groups and material regions (which survive refinement). `solve` binds the problem to
-# it (`nc.bind`: every coefficient of (7) as UFL) and solves (7) with Newton's method (PETSc SNES). For
-# m_n = 1.5 the map $u \mapsto (u_n)_+^{m_n}$ is C¹, so Newton converges fast.
+# it (`nc.bind`: every coefficient of (7) as UFL) and solves (7) with Newton's method (PETSc SNES) and
+# the exact Jacobian of j_n. For m_n > 1 the map $u \mapsto (u_n)_+^{m_n}$ is C¹; for m_n = 1 it has a
+# kink and the Jacobian is the generalized (semismooth Newton) one.
 
 # %%
 domain = nc.build_domain(problem, comm)
