@@ -25,7 +25,7 @@ OUTPUT = ROOT / "docs" / "api.md"
 GROUPS = [
     ("Problems", "A problem of the paper's §2 — model (1)–(4) and its data — validated and independent of "
                  "any mesh: from a built-in case, a TOML file or a dict.",
-     ["Problem", "load_problem", "case_names", "case_path"]),
+     ["Problem", "load_problem", "case_names", "case_titles", "case_path", "DEFAULT_CASE"]),
     ("Meshes", "A `Domain` is a DOLFINx mesh with named boundary groups (Γ_D, Γ_N, Γ_C, symmetry planes) and "
                "material regions, kept through refinement. 2D triangles and 3D tetrahedra.",
      ["Domain", "build_domain", "rectangle", "box", "from_gmsh", "from_gmsh_model", "from_dolfinx"]),
@@ -40,7 +40,7 @@ GROUPS = [
     ("Quantities", "Numbers and UFL expressions of a solution: the law (4), stresses, forces, errors, and the "
                    "building blocks of the estimator; closed-form Hertz references.",
      ["solution_quantities", "errors", "integrate", "contact_projection", "lame", "sigma", "normal_stress",
-      "contact_pressure", "contact_measure", "assemble_cellwise", "patch_sum", "hertz_line_contact",
+      "contact_pressure", "contact_measure", "assemble_cellwise", "patch_sum", "hertz_line_contact", "compare_with_reference",
       "hertz_sphere_contact"]),
     ("Utilities", "Errors, logging, and constants.",
      ["InputError", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES"]),

@@ -241,6 +241,9 @@ def build_domain(problem, comm):
         return meshes.rectangle(comm, spec["rectangle"], spec["cells"], spec["diagonal"])
     if spec["box"]:
         return meshes.box(comm, spec["box"], spec["cells"])
+    if not spec["file"]:
+        raise InputError("the problem names no mesh (mesh.file, mesh.rectangle or mesh.box): build a Domain "
+                         "(nc.from_gmsh_model, nc.from_dolfinx, …) and pass it to solve/adapt")
     path = Path(spec["file"])
     if not path.is_file():
         raise InputError(f"mesh file '{path}' not found")

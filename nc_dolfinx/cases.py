@@ -5,11 +5,10 @@ from .errors import InputError
 from .problem import read_toml
 
 CASES_DIR = Path(__file__).parent / "cases"
-DEFAULT_CASE = "block"
 
 
-def available():
-    """{name: title} of the built-in cases."""
+def case_titles():
+    """The built-in cases as {name: title}, the title being the first line of each problem file."""
     return {p.stem: read_toml(p).get("title", p.stem) for p in sorted(CASES_DIR.glob("*.toml"))}
 
 

@@ -100,13 +100,12 @@ def _check_consistency(values, given):
     """Rules that join several keys."""
     mesh = values["mesh"]
     kinds = [k for k in ("file", "rectangle", "box") if mesh[k] is not None]
-    if len(kinds) != 1:
-        raise InputError("[mesh] needs exactly one of 'file', 'rectangle' or 'box'"
-                         + (f", got {', '.join(kinds)}" if kinds else ""))
-    kind = kinds[0]
-    if kind == "file" and "mesh.cells" in given:
-        raise InputError("mesh.cells is for mesh.rectangle or mesh.box, not for a mesh file")
-    if kind != "file":
+    if len(kinds) > 1:
+        raise InputError(f"[mesh] takes one of 'file', 'rectangle' or 'box', got {', '.join(kinds)}")
+    kind = kinds[0] if kinds else None  # None: the mesh is given as a Domain (API)
+    if kind not in ("rectangle", "box") and "mesh.cells" in given:
+        raise InputError("mesh.cells is for mesh.rectangle or mesh.box")
+    if kind in ("rectangle", "box"):
         dim = 2 if kind == "rectangle" else 3
         if len(mesh[kind][0]) != dim:
             raise InputError(f"mesh.{kind} must have {dim} coordinates per corner, got {mesh[kind]}")

@@ -41,15 +41,13 @@ FRONT_END = [ROOT / PACKAGE / "cli.py", ROOT / PACKAGE / "run.py"]
 # Files their owners are rewriting onto the public API (issue 12): while they still use private parts,
 # the test reports them as an expected failure (with the list) instead of failing; once a file is clean
 # its test passes, and its entry here can go.
-PENDING = {"benchmarks/run.py": "the solver engineer (issue 13)",
-           "nc_dolfinx/cli.py": "the front-door engineer (issue 11)",
-           "nc_dolfinx/run.py": "the front-door engineer (issue 11)"}
+PENDING = {"benchmarks/run.py": "the solver engineer (issue 13)"}
 
 # A docstring cites what it implements: the paper (equation, definition, section, remark, theorem, lemma)
 # or the named method. Utilities (files, meshes as containers, logging, errors) need no citation.
 CITATION = re.compile(r"\(\d+\)|\bDefinition \d|\bDef\. \d|§\s?\d|\bRemark \d|\bTheorem \d|\bLemma \d|"
                       r"\bCorollary \d|Dörfler|Plaza|Hertz|nested iteration")
-NO_CITATION_NEEDED = {"load_problem", "case_names", "case_path", "build_domain", "rectangle", "box", "from_gmsh",
+NO_CITATION_NEEDED = {"load_problem", "case_names", "case_titles", "DEFAULT_CASE", "case_path", "build_domain", "rectangle", "box", "from_gmsh",
                       "from_gmsh_model", "from_dolfinx", "integrate", "InputError", "quiet_compilers",
                       "show_progress"}
 
