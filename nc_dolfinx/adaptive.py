@@ -82,7 +82,7 @@ def solve_level(problem, domain, options, initial=None, load_steps=1, preconditi
     u = refinement.transfer(initial, V) if initial is not None else fem.Function(V)
     u.name = "displacement"
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields), options,
-                             preconditioner_matrix or problem.preconditioner_matrix)
+                             preconditioner_matrix or problem.preconditioner_matrix, forms.energy(u, fields))
     try:
         stats = solver.solve(load_steps)
     finally:

@@ -61,6 +61,18 @@ def elastic_energy(u, fields):
     return 0.5 * ufl.inner(sigma(u, fields.lmbda, fields.mu), ufl.sym(ufl.grad(u))) * ufl.dx
 
 
+def energy(u, fields):
+    """Π(u) = ½ a(u, u) − L(u) + ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1}: the convex, C¹ energy whose
+    gradient is the residual of (7) (the solver's line search decreases it)."""
+    n = ufl.FacetNormal(fields.domain.mesh)
+    penetration = positive_part(normal_displacement(u, n) - fields.gap)
+    load = ufl.inner(fields.f, u) * ufl.dx
+    for group_id, g in fields.g.items():
+        load += ufl.inner(g, u) * fields.ds(group_id)
+    contact = fields.c_n / (fields.m_n + 1) * penetration ** (fields.m_n + 1) * contact_measure(fields)
+    return elastic_energy(u, fields) - load + contact
+
+
 def von_mises(u, fields):
     """Plane strain von Mises stress, with σ_zz = λ tr ε(u)."""
     s = sigma(u, fields.lmbda, fields.mu)

@@ -44,7 +44,7 @@ class Problem:
     gap: object = "0"
     exact_u: list = None
     petsc_options: dict = field(default_factory=dict)
-    preset: str = "direct"
+    preset: str = "auto"
     preconditioner_matrix: str = "auto"
     load_steps: int = 1
     adapt: dict = field(default_factory=dict)
@@ -176,9 +176,9 @@ def problem_from_data(data, name, source=None):
     if p.loads_from_exact and p.exact_u is None:
         raise InputError("loads.from_exact needs [exact] u")
     p.petsc_options = dict(solver.get("petsc_options", {}))
-    p.preset = solver.get("preset", "direct")
-    if p.preset not in ("direct", "iterative"):
-        raise InputError(f"solver.preset must be 'direct' or 'iterative', got '{p.preset}'")
+    p.preset = solver.get("preset", "auto")
+    if p.preset not in ("auto", "direct", "iterative"):
+        raise InputError(f"solver.preset must be 'auto', 'direct' or 'iterative', got '{p.preset}'")
     p.preconditioner_matrix = solver.get("preconditioner_matrix", "auto")
     if p.preconditioner_matrix not in ("auto", "bulk", "jacobian"):
         raise InputError("solver.preconditioner_matrix must be 'auto', 'bulk' or 'jacobian', "
