@@ -231,3 +231,16 @@ def test_petsc_options_from_the_command_line_and_the_problem_file(tmp_path):
     assert newton_iterations("--set", "solver.petsc_options={snes_rtol = 1e-2}", "-snes_rtol", "1e-10") == default
     # the preset is an option of the same layers
     assert newton_iterations("-preset", "iterative") > default
+
+
+def test_benchmark_family_runs_and_every_member_converges(tmp_path):
+    """benchmarks/family.py end to end on 16x16 meshes (no timing is checked here): every member of the
+    family converges with no options, on 1 rank."""
+    import json
+    from conftest import run
+    proc = run([ROOT / "benchmarks" / "family.py", "--smoke", "--np", "1", "--no-nested",
+                "--json-out", tmp_path / "family.json"], timeout=600)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    rows = json.loads((tmp_path / "family.json").read_text())
+    assert len(rows) >= 14 and all(r["reason"].startswith("CONVERGED") for r in rows)
+    assert {r["body"] for r in rows} == {"square", "two_materials"}
