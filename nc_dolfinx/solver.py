@@ -178,7 +178,7 @@ class SolveStats:
     linear_iterations: int = 0
     converged_reason: str = ""
     time: float = 0.0
-    preconditioner_matrix: str = ""  # the mode used ("auto", "bulk", "jacobian")
+    preconditioner_matrix: str = ""  # the configured mode ("auto", "bulk", "jacobian")
     preset: str = ""                # the preset in force ("auto" resolved)
     pc_setups: int = 0              # times the preconditioning matrix was (re)built
     recoveries: str = ""            # fallbacks taken after a failed SNES solve, e.g. "refresh,continuation"
@@ -259,6 +259,7 @@ class NonlinearSolver:
         if preconditioner_matrix not in PRECONDITIONER_MATRICES:
             raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
         self.u, self.bcs, self.mode = u, bcs, preconditioner_matrix
+        self.configured_mode = preconditioner_matrix
         V = u.function_space
         self.comm = V.mesh.comm
         self._assemble_constant_parts(forms, energy)
@@ -497,21 +498,23 @@ class NonlinearSolver:
     def _retry_continuation(self, x, stats, target, start, factor):
         """Load continuation from the initial guess: increments of the load factor, halved on failure."""
         start.copy(x)
-        done, step = self.load_factor - factor, factor / 4
-        while done < self.load_factor - 1e-12:
-            trial = min(done + step, self.load_factor)
-            saved, self.load_factor = self.load_factor, trial
-            x.copy(self.trial)
-            converged = self._snes_solve(x, stats, target * trial / saved)
-            self.load_factor = saved
-            if converged:
-                done = trial
-            elif step < factor / 64:
-                return False
-            else:
-                self.trial.copy(x)
-                step /= 2
-        return True
+        last = x.copy()  # the last converged increment
+        done, step, final = self.load_factor - factor, factor / 4, self.load_factor
+        try:
+            while done < final - 1e-12:
+                self.load_factor = min(done + step, final)
+                if self._snes_solve(x, stats, target * self.load_factor / final):
+                    done = self.load_factor
+                    x.copy(last)
+                elif step < factor / 64:
+                    return False
+                else:
+                    last.copy(x)
+                    step /= 2
+            return True
+        finally:
+            self.load_factor = final
+            last.destroy()
 
     def _solve_load_step(self, x, stats, factor):
         """Solve at the current load factor from x (the previous step's solution); ``factor``: its
@@ -557,7 +560,7 @@ class NonlinearSolver:
         finally:
             x.destroy()
         stats.time = time.perf_counter() - start
-        stats.preconditioner_matrix = self.mode
+        stats.preconditioner_matrix = self.configured_mode  # (a fallback's mode is not carried to the next level)
         stats.preset = self.preset
         stats.pc_setups = self.pc_setups
         stats.recoveries = ",".join(recoveries)
