@@ -235,6 +235,7 @@ MISFIT_MAX = 0.3
 WOLFE_ETA = 0.5
 LINE_TOL = 0.1
 OBJECTIVE_ROUNDOFF = 1e-10
+UNSUPPORTED_RTOL0 = 0.3
 
 
 class NonlinearSolver:
@@ -265,6 +266,7 @@ class NonlinearSolver:
         self._assemble_constant_parts(forms, energy)
         dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
         self.preset, self.options = resolve_options(options, V.dofmap.index_map_bs, dofs, u.vector.norm() > 0)
+        self.user_keys = {key.lstrip("-") for key in options}
         self.A = self.K.duplicate(copy=True)  # K's sparsity contains Γ_C's
         self.P = self.K if preconditioner_matrix == "bulk" else self.K.duplicate(copy=True)
         near_nullspace = rigid_body_modes(V)
@@ -399,6 +401,7 @@ class NonlinearSolver:
     def _reset_preconditioner_state(self):
         self.best_rate = math.inf   # fewest Krylov iterations per decade since P was built
         self.force_refresh = True   # P is built from J(u_0) on the first Jacobian
+        self.first_jacobian = True
         self.pc_setups = 0
 
     def _last_krylov_solve(self):
@@ -447,11 +450,26 @@ class NonlinearSolver:
         self.K.copy(A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         fem_petsc.assemble_matrix(A, self.j_n_jacobian, bcs=self.bcs)
         A.assemble()
+        if self.first_jacobian:
+            self._first_krylov_tolerance(A)
         if self._wants_refresh(snes.getIterationNumber() == 0, A):
             # While P is left untouched PETSc sees an unchanged matrix and keeps its PC.
             A.copy(P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.force_refresh, self.best_rate = False, math.inf
             self.pc_setups += 1
+
+    def _first_krylov_tolerance(self, A):
+        """Eisenstat–Walker's first tolerance (unless given): UNSUPPORTED_RTOL0 when J(u_0) holds no contact
+        stiffness at all — the first step is then the unsupported body's response, which the line search
+        cuts to a fraction (0.07–0.34 on the family's m_n > 1 members) — else the preset's."""
+        self.first_jacobian = False
+        if not self.snes.getUseEW() or "snes_ksp_ew_rtol0" in self.user_keys:
+            return
+        A.axpy(-1.0, self.K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        unsupported = A.norm() == 0.0
+        A.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        rtol0 = UNSUPPORTED_RTOL0 if unsupported else float(self.options.get("snes_ksp_ew_rtol0", 0.3))
+        self.snes.setParamsEW(rtol_0=rtol0)
 
     # --- solving -----------------------------------------------------------------------------------
 
