@@ -148,8 +148,8 @@ def solve(name, mesh, **contact):
     t = time.perf_counter()
     try:
         its, converged = newton.solve(problem, u.vector())
-    except RuntimeError:  # a failed Krylov solve ends dolfin's Newton with an exception
-        its, converged = newton.iteration(), False
+    except RuntimeError:  # a failed Krylov solve (or NaN) ends dolfin's Newton with an exception
+        its, converged = -1, False
     elapsed = time.perf_counter() - t
     energy = assemble(0.5 * inner(data.sigma(u), sym(grad(u))) * dx)
     force = assemble(pressure * ds_c)

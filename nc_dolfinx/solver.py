@@ -106,10 +106,10 @@ def choose_preset(dim, dofs, warm_start):
       make the Newton counts independent of the partition.
     - 2D with a warm start (the adaptive loop's nested levels), up to WARM_DIRECT_MAX_DOFS: MUMPS
       Cholesky of J(u_0), nearly the final Jacobian: 1–4 CG iterations per level. GAMG costs 3–4x more to
-      set up on refined meshes than on generated ones of the same size (block 1.3e5: 0.8 s against
-      0.22 s), and the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct
+      set up on refined meshes than on generated ones of the same size (the square at 1.3e5: 0.8 s
+      against 0.22 s), and the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct
       (corner: within 10 %).
-    - otherwise (2D cold starts, large meshes): CG + GAMG, 1.5–2.8x faster than the factorisation on a
+    - otherwise (2D cold starts, large meshes): CG + GAMG, 1.4–2.8x faster than the factorisation on a
       cold start from 1e4 dofs on (block, corner, the family square).
     The number of ranks did not change these choices in the measurements.
     """
@@ -227,7 +227,7 @@ def contact_part(energy, j_n):
 # iterations per decade of residual reduction seen since P was built (and more than KRYLOV_MIN_ITS), or
 # (c) J and P differ by more than MISFIT_MAX along the last Newton step y: |yᵀ(J − P)y| / yᵀPy. (c) is
 # what fires on the family's foundations with m_n > 1 after the first step from J(0) = K (misfit 2.6–44:
-# CG then needed 41–47 iterations instead of 55–80). All are global numbers, so every rank decides alike.
+# CG then needed 41–47 iterations in all instead of 55–80). All are global numbers: every rank decides alike.
 KRYLOV_GROWTH = 3.0
 KRYLOV_MIN_ITS = 20
 MISFIT_MAX = 0.3
