@@ -52,6 +52,15 @@ NEWTON_DEFAULTS = {
     # step (the line search guards it) and refresh the preconditioner, instead of ending the solve.
     "snes_max_linear_solve_fail": 1000,
 }
+# The solver's own choices, options of the same layers (``-pc_refresh_misfit 1``, ``-line_minimisation
+# false`` on the command line, ``[solver] petsc_options``); not passed to PETSc.
+OWN_DEFAULTS = {
+    "line_minimisation": True,     # the line search of _line_minimisation (false: SNES's own, on Π for bt)
+    "pc_refresh_misfit": 0.3,      # MISFIT_MAX below
+    "pc_refresh_growth": 3.0,      # KRYLOV_GROWTH below
+    "ew_rtol0_unsupported": 0.3,   # see _first_krylov_tolerance
+    "fallbacks": True,             # false: a failed SNES solve ends the run at once
+}
 # Unless an snes_atol is given, ‖F‖ <= ATOL_OF_LOAD ‖L‖ also counts as converged: with a good initial
 # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
 ATOL_OF_LOAD = 1e-10
@@ -123,13 +132,18 @@ WARM_DIRECT_MAX_DOFS = 1_000_000
 
 
 def resolve_options(options, dim, dofs, warm_start):
-    """NEWTON_DEFAULTS < the preset's options < the user's layers, with "auto" resolved."""
+    """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved."""
     user = {k.lstrip("-"): v for k, v in options.items()}
     preset = str(user.pop("preset", "auto"))
     if preset not in PRESET_NAMES:
         raise InputError(f"solver preset must be one of {', '.join(PRESET_NAMES)}, got '{preset}'")
     name = choose_preset(dim, dofs, warm_start) if preset == "auto" else preset
-    return name, {**NEWTON_DEFAULTS, **PRESETS[name], **user}
+    return name, {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name], **user}
+
+
+def _flag(value):
+    """An option's truth value: true/false/1/0/yes/no (None: set without a value, i.e. true)."""
+    return value is None or str(value).lower() in ("true", "1", "yes", "on")
 
 
 _OPTIONS_SET = {}  # prefix -> keys set by the last call: PETSc's options database is global
@@ -228,14 +242,13 @@ def contact_part(energy, j_n):
 # (c) J and P differ by more than MISFIT_MAX along the last Newton step y: |yᵀ(J − P)y| / yᵀPy. (c) is
 # what fires on the family's foundations with m_n > 1 after the first step from J(0) = K (misfit 2.6–44:
 # CG then needed 41–47 iterations in all instead of 55–80). All are global numbers: every rank decides alike.
-KRYLOV_GROWTH = 3.0
+KRYLOV_GROWTH = OWN_DEFAULTS["pc_refresh_growth"]
 KRYLOV_MIN_ITS = 20
-MISFIT_MAX = 0.3
+MISFIT_MAX = OWN_DEFAULTS["pc_refresh_misfit"]
 # Line minimisation (see _line_minimisation).
 WOLFE_ETA = 0.5
 LINE_TOL = 0.1
 OBJECTIVE_ROUNDOFF = 1e-10
-UNSUPPORTED_RTOL0 = 0.3
 
 
 class NonlinearSolver:
@@ -291,14 +304,15 @@ class NonlinearSolver:
         self.work, self.trial = self.K.createVecRight(), self.u.vector.copy()
 
     def _create_snes(self):
-        set_petsc_options(self.options)
+        set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
         self.snes = PETSc.SNES().create(self.comm)
         self.snes.setOptionsPrefix(PREFIX)
         self.snes.setFunction(self._residual, self.b)
         self.snes.setJacobian(self._jacobian, self.A, self.P)
         if self.contact_energy is not None:
             self.snes.setObjective(self._objective)
-            self.snes.setLineSearchPreCheck(self._line_minimisation)
+            if _flag(self.options["line_minimisation"]):
+                self.snes.setLineSearchPreCheck(self._line_minimisation)
         self.snes.setFromOptions()
         ksp = self.snes.getKSP()
         ksp.setFromOptions()
@@ -419,7 +433,7 @@ class NonlinearSolver:
             return True
         if not first and self._krylov_grew():  # (first: the KSP's last solve belongs to an earlier SNES solve)
             return True
-        return self._misfit(A) > MISFIT_MAX
+        return self._misfit(A) > float(self.options["pc_refresh_misfit"])
 
     def _misfit(self, A):
         """|yᵀ(J − P)y| / yᵀPy for the last Newton step y: the part of J's energy along the solution's
@@ -443,7 +457,8 @@ class NonlinearSolver:
         rate = its / max(decades, 0.5)
         if its >= 3:
             self.best_rate = min(self.best_rate, rate)
-        grew = failed or (its > KRYLOV_MIN_ITS and rate > KRYLOV_GROWTH * self.best_rate)
+        growth = float(self.options["pc_refresh_growth"])
+        grew = failed or (its > KRYLOV_MIN_ITS and rate > growth * self.best_rate)
         return grew
 
     def _jacobian(self, snes, x, A, P):
@@ -459,17 +474,15 @@ class NonlinearSolver:
             self.pc_setups += 1
 
     def _first_krylov_tolerance(self, A):
-        """Eisenstat–Walker's first tolerance (unless given): UNSUPPORTED_RTOL0 when J(u_0) holds no contact
+        """Eisenstat–Walker's first tolerance (unless given): ew_rtol0_unsupported when J(u_0) holds no contact
         stiffness at all — the first step is then the unsupported body's response, which the line search
         cuts to a fraction (0.07–0.34 on the family's m_n > 1 members) — else the preset's."""
         self.first_jacobian = False
         if not self.snes.getUseEW() or "snes_ksp_ew_rtol0" in self.user_keys:
             return
-        A.axpy(-1.0, self.K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        unsupported = A.norm() == 0.0
-        A.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        rtol0 = UNSUPPORTED_RTOL0 if unsupported else float(self.options.get("snes_ksp_ew_rtol0", 0.3))
-        self.snes.setParamsEW(rtol_0=rtol0)
+        unsupported = A.norm() == self.K.norm()  # (J(u_0) = K entry by entry, or an added contact term)
+        rtol0 = self.options["ew_rtol0_unsupported"] if unsupported else self.options.get("snes_ksp_ew_rtol0", 0.3)
+        self.snes.setParamsEW(rtol_0=float(rtol0))
 
     # --- solving -----------------------------------------------------------------------------------
 
@@ -542,8 +555,11 @@ class NonlinearSolver:
         start = x.copy()
         used = []
         try:
-            if self._snes_solve(x, stats, target):
-                return used
+            if self._snes_solve(x, stats, target) or not _flag(self.options["fallbacks"]):
+                if stats.converged_reason.startswith("CONVERGED"):
+                    return used
+                raise InputError(f"SNES diverged ({stats.converged_reason}) after {stats.newton_iterations} "
+                                 "Newton iterations (fallbacks off); try -fallbacks true")
             for name, retry in (("refresh", self._retry_refreshed), ("stronger_pc", self._retry_stronger)):
                 used.append(name)
                 if not np.all(np.isfinite(x.array)):

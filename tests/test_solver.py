@@ -99,6 +99,15 @@ def test_a_stiffening_foundation_refreshes_the_preconditioner():
     assert stats.pc_setups == 2
 
 
+def test_the_solver_s_own_choices_are_options_of_the_same_layers(penalty_reference):
+    _, stats = solve_square(1e5, 3, "iterative", {"pc_refresh_misfit": 1e9})
+    assert stats.pc_setups == 1  # no refresh after the first step (test above: 2)
+    u, stats = solve_square(1e4, 1, "iterative", {"line_minimisation": "false"})
+    assert close(u, penalty_reference)
+    with pytest.raises(InputError, match="fallbacks off"):
+        solve_square(1e4, 1, "iterative", {"snes_max_it": 1, "fallbacks": "false"})
+
+
 def test_a_failing_krylov_solve_refreshes_the_preconditioner(penalty_reference):
     """CG stopped after 2 iterations (KSP DIVERGED_ITS) still gives a descent direction of Π: the step
     is taken, the preconditioner rebuilt, and the solve converges to the same solution."""
