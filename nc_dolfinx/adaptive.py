@@ -56,8 +56,7 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     else:
         u = refinement.transfer(initial, V)
     u.name = "displacement"
-    preset = "direct" if settings["preset"] == "auto" else settings["preset"]  # until the solver chooses
-    options = solver_options(preset, settings["petsc_options"], petsc_options)
+    options = solver_options(settings["preset"], settings["petsc_options"], petsc_options)
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
                              options, preconditioner_matrix or settings["preconditioner_matrix"])
     try:
@@ -178,12 +177,10 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
         domain = build_domain(problem, comm or MPI.COMM_WORLD)
     times = {"mesh": time.perf_counter() - t0}  # then, on later levels, the refinement that made the mesh
     history, previous, eta0 = [], None, None
-    pc_matrix = None  # "auto" turns into "jacobian" for good once it switches
     for number in range(settings.levels):
         t = time.perf_counter()
         solution = solve(problem, domain, previous, petsc_options,
-                         None if number == 0 else 1, pc_matrix)
-        pc_matrix = solution.stats.preconditioner_matrix
+                         None if number == 0 else 1)
         times["solve"] = time.perf_counter() - t
         t = time.perf_counter()
         est = estimator.estimate(solution.u, solution.fields, **estimator_options(problem))

@@ -70,6 +70,14 @@ def normal_compliance_forms(u, fields):
     return NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
 
 
+def energy(u, fields):
+    """Π(u) = ½ a(u, u) − L(u) + ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1}: the convex, C¹ energy whose
+    gradient is the residual of (7) (the solver's line search decreases it)."""
+    pieces = normal_compliance_forms(u, fields)
+    return elastic_energy(u, fields) - ufl.replace(pieces.L, {ufl.TestFunction(u.function_space): u}) \
+        + pieces.contact_energy
+
+
 def elastic_energy(u, fields):
     """½ a(u, u)."""
     return 0.5 * ufl.inner(fields.sigma(u), physics.strain(u)) * ufl.dx
