@@ -7,7 +7,6 @@ import dolfinx
 from dolfinx import mesh as dmesh
 
 import nc_dolfinx as nc
-from nc_dolfinx import reference
 
 CASES = ROOT / "nc_dolfinx" / "cases"
 
@@ -63,6 +62,6 @@ def test_refined_cells_cluster_at_the_singularities(corner_runs):
 def test_hertz_half_width_and_peak_pressure():
     """Within 3 % of 2D Hertz (for the computed force) once the contact zone is resolved (5 levels)."""
     problem, _, rows = run("hertz", refine="adaptive", levels=6)
-    for quantity, computed, expected in reference.compare(problem, rows[-1]):
+    for quantity, computed, expected in nc.compare_with_reference(problem, rows[-1]):
         assert computed == pytest.approx(expected, rel=0.03), quantity
     assert rows[-1]["contact_length"] / 2 < 0.1  # a << R: the regime where Hertz applies

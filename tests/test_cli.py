@@ -55,7 +55,7 @@ def test_failure_keeps_finished_levels(tmp_path, newton_counts, nprocs):
     failing = next((n for n, count in enumerate(newton_counts) if count > limit), None)
     assert failing is not None, f"no level needs more Newton iterations than levels 0 and 1: {newton_counts}"
     out = tmp_path / "out"
-    result = cli([*FAILING, "--out", out, "-snes_max_it", limit], nprocs=nprocs)
+    result = cli([*FAILING, "--out", out, "-snes_max_it", limit, "-fallbacks", "false"], nprocs=nprocs)
     text = result.stdout + result.stderr
     assert result.returncode == 1 if nprocs == 1 else result.returncode != 0, text
     errors = [line for line in text.splitlines() if line.startswith(ERROR)]
