@@ -30,10 +30,10 @@ from .domain import Domain, region_function, tag_exterior_facets
 def refine(domain, cells=None):
     """Refine the owned ``cells`` (local indices; ``None``: every cell) and return the new Domain."""
     msh, tdim = domain.mesh, domain.mesh.topology.dim
+    msh.topology.create_entities(1)  # Plaza needs the edges, also for uniform refinement of tetrahedra
     if cells is None:
         child = dmesh.refine(msh, redistribute=False)
     else:
-        msh.topology.create_entities(1)
         edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), tdim, 1)
         child = dmesh.refine(msh, edges, redistribute=False)
     if msh.comm.size > 1 and _has_duplicate_ghosts(child):
