@@ -403,20 +403,22 @@ BUILDERS = {"manufactured": manufactured, "closed_form": closed_form, "penalty":
 
 
 def evaluate(results, errors, mode):
+    import checks3d  # the 3D studies (it imports this module's helpers)
+    titles, builders = {**TITLES, **checks3d.TITLES}, {**BUILDERS, **checks3d.BUILDERS}
+    order = ["manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity",
+             *checks3d.ORDER]
     sections = []
-    for key in ("manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity"):
+    for key in order:
         source = "manufactured" if key == "efficiency" else key
         if source not in results and source not in errors:
             continue
         if source in errors:
-            sec = Section(key, TITLES[key], error=errors[source])
+            sec = Section(key, titles[key], error=errors[source])
         else:
             try:
-                sec = (efficiency if key == "efficiency" else BUILDERS[key])(results[source])
+                sec = (efficiency if key == "efficiency" else builders[key])(results[source])
             except Exception as err:  # a malformed result is a failure of the study, reported as such
                 import traceback
-                sec = Section(key, TITLES[key], error=f"{type(err).__name__}: {err}\n{traceback.format_exc()}")
+                sec = Section(key, titles[key], error=f"{type(err).__name__}: {err}\n{traceback.format_exc()}")
         sections.append(sec)
-    order = ["manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity"]
-    sections.sort(key=lambda s: order.index(s.key))
     return Report(sections, mode)

@@ -1,0 +1,216 @@
+"""The expectations of the 3D studies (issue 10, item 9), evaluated on worker3d.py's measurements."""
+import math
+
+import numpy as np
+
+from checks import LINEAR_ITS_RTOL, Section, within
+from checks import penalty as penalty_2d
+from common import fitted_slope, spread
+
+PARALLEL_RTOL_3D = 1e-8  # issue 10: identical to 1e-8 on 1, 2, 3 ranks
+
+TITLES = {
+    "manufactured3d": "9. 3D manufactured solution with a free boundary (uniform refinement)",
+    "hertz3d": "10. 3D Hertz contact of a sphere (adaptive)",
+    "fichera": "11. 3D adaptive against uniform refinement on the Fichera corner",
+    "penalty3d": "12. 3D penalty → Signorini (Remark 1)",
+    "parallel3d": "13. 3D parallel invariance (1, 2, 3 ranks)",
+}
+ORDER = list(TITLES)
+
+# in 3D, h ~ dofs^(-1/3): O(h) is a slope of -1/3 against dofs
+H1_SLOPE = (-0.38, -0.28)       # ‖u − u_h‖_1 and η against dofs (issue 10: −0.33 ± 0.05)
+L2_SLOPE = (-0.77, -0.57)       # ‖u − u_h‖_0 against dofs (−2/3 ± 0.1)
+EFF_SETTLE = 0.05               # max/min − 1 of η/‖e‖_1 over the last three levels
+HERTZ_RTOL = 0.03
+FICHERA_ADAPTIVE_SLOPE = -0.30  # adaptive: slopes of η and of the energy error against dofs at most this
+FICHERA_SLOPE_GAP = 0.08        # uniform slopes flatter by at least this much
+FICHERA_DOF_RATIO = 2.0         # uniform needs at least this many times the dofs for the same error
+FICHERA_FIT = 4                 # adaptive levels in the fitted slopes
+
+
+def slope(rows, key, last=3, xkey="dofs"):
+    rows = rows[-last:]
+    return fitted_slope([r[xkey] for r in rows], [r[key] for r in rows])
+
+
+# --- manufactured3d --------------------------------------------------------------------------------------
+
+def manufactured3d(data):
+    s = Section("manufactured3d", TITLES["manufactured3d"])
+    runs, cfg = data["runs"], data["config"]
+    cells = cfg["cells"]
+    s.notes.append(f"{len(runs)} configurations, the unit cube with {cells}×{cells}×{cells}×6 tetrahedra refined "
+                   f"uniformly {cfg['levels'] - 1} times; slopes fitted against dofs over the last three levels.")
+    rows, eff_rows = [], []
+    bad = {"h1": [], "l2": [], "eta": [], "settle": []}
+    for run in runs:
+        r = run["rows"]
+        label = f"m={run['m']:g}, c={run['c']:g}"
+        k = {key: slope(r, key) for key in ("h1_error", "l2_error", "eta", "eta_1", "eta_2", "eta_3", "eta_4",
+                                             "zeta")}
+        eff = [x["effectivity"] for x in r]
+        settle = spread(eff[-3:])
+        rows.append([label, r[-1]["dofs"], f"{k['h1_error']:.3f}", f"{k['l2_error']:.3f}", f"{k['eta']:.3f}",
+                     *(f"{k[key]:.2f}" for key in ("eta_1", "eta_2", "eta_3", "eta_4", "zeta")),
+                     f"{eff[-1]:.3f}", f"{100 * settle:.1f} %", f"{r[-1]['effectivity_augmented']:.3f}",
+                     r[-1]["newton_iterations"]])
+        eff_rows.append([label] + [f"{v:.3f}" for v in eff])
+        for name, key, bounds in (("h1", "h1_error", H1_SLOPE), ("l2", "l2_error", L2_SLOPE), ("eta", "eta", H1_SLOPE)):
+            if not within(k[key], bounds):
+                bad[name].append(f"{label}: {k[key]:.3f}")
+        if settle > EFF_SETTLE:
+            bad["settle"].append(f"{label}: {100 * settle:.1f} %")
+    s.tables.append(("slopes against dofs (last three levels), effectivity on the finest level",
+                     ["config", "dofs", "H¹", "L²", "η", "η_1", "η_2", "η_3", "η_4", "ζ", "η/‖e‖_1", "spread(3)",
+                      "η/ẽ", "Newton"], rows))
+    s.tables.append(("effectivity η/‖u − u_h‖_1 per level",
+                     ["config"] + [f"L{i}" for i in range(len(runs[0]["rows"]))], eff_rows))
+
+    def summary(key):
+        values = [slope(run["rows"], key) for run in runs]
+        return f"{min(values):.3f} … {max(values):.3f}"
+
+    for name, key, bounds, what in (("h1", "h1_error", H1_SLOPE, "H¹ error"), ("l2", "l2_error", L2_SLOPE, "L² error"),
+                                    ("eta", "eta", H1_SLOPE, "η (Corollary 8)")):
+        s.check(f"{what} slope against dofs, all configurations",
+                summary(key) + (f"; off: {bad[name]}" if bad[name] else ""),
+                f"{bounds[0]} … {bounds[1]}", not bad[name])
+    settles = [spread([x["effectivity"] for x in run["rows"][-3:]]) for run in runs]
+    s.check("effectivity η/‖e‖_1 settles", f"variation over the last 3 levels ≤ {100 * max(settles):.1f} %"
+            + (f"; off: {bad['settle']}" if bad["settle"] else ""), f"≤ {100 * EFF_SETTLE:.0f} %", not bad["settle"])
+    return s
+
+
+# --- hertz3d ---------------------------------------------------------------------------------------------
+
+def hertz3d(data):
+    s = Section("hertz3d", TITLES["hertz3d"])
+    rows = []
+    for r in data["rows"]:
+        ea, ep = r["radius"] / r["hertz_radius"] - 1, r["max_contact_pressure"] / r["hertz_peak_pressure"] - 1
+        rows.append([r["level"], r["dofs"], f"{r['contact_resultant'] / data['fraction']:.5f}", f"{r['radius']:.5f}",
+                     f"{r['hertz_radius']:.5f}", f"{100 * ea:+.2f} %", f"{r['max_contact_pressure']:.3f}",
+                     f"{r['hertz_peak_pressure']:.3f}", f"{100 * ep:+.2f} %", f"{r['eta']:.4e}"])
+    s.tables.append((f"R = {data['R']:g}, E = {data['E']:g}, ν = {data['nu']:g}, c_n = {data['c_n']}; a quarter "
+                     "model: F = P/0.25", ["level", "dofs", "F", "a_h", "a_Hertz", "a err", "p0_h", "p0_Hertz",
+                                           "p0 err", "η"], rows))
+    last = data["rows"][-1]
+    ea = last["radius"] / last["hertz_radius"] - 1
+    ep = last["max_contact_pressure"] / last["hertz_peak_pressure"] - 1
+    s.check("contact radius on the last level", f"{100 * ea:+.2f} %", f"within ±{100 * HERTZ_RTOL:g} %",
+            abs(ea) < HERTZ_RTOL)
+    s.check("peak pressure on the last level", f"{100 * ep:+.2f} %", f"within ±{100 * HERTZ_RTOL:g} %",
+            abs(ep) < HERTZ_RTOL)
+    return s
+
+
+# --- fichera -----------------------------------------------------------------------------------------------
+
+def dofs_to_reach(rows, key, target):
+    """Dofs at which the (log-log interpolated) curve of ``key`` first reaches ``target``."""
+    d = np.array([r["dofs"] for r in rows], float)
+    e = np.array([r[key] for r in rows], float)
+    for i in range(1, len(d)):
+        if e[i] <= target:
+            t = (math.log(e[i - 1]) - math.log(target)) / (math.log(e[i - 1]) - math.log(e[i]))
+            return float(math.exp(math.log(d[i - 1]) + t * (math.log(d[i]) - math.log(d[i - 1]))))
+    return float("nan")
+
+
+def fichera_summary(data):
+    n = data["compared_adaptive_levels"]
+    adaptive, uniform = data["histories"]["adaptive"][:n], data["histories"]["uniform"]
+    out = {}
+    for key in ("eta", "energy_error"):
+        out[f"adaptive_{key}"] = slope(adaptive, key, FICHERA_FIT)
+        out[f"uniform_{key}"] = slope(uniform, key, 3)
+        target = uniform[-1][key]
+        out[f"ratio_{key}"] = uniform[-1]["dofs"] / dofs_to_reach(adaptive, key, target)
+        out[f"target_{key}"] = target
+    out["uniform_dofs"] = uniform[-1]["dofs"]
+    return out
+
+
+def fichera(data):
+    s = Section("fichera", TITLES["fichera"])
+    ref, n = data["reference"], data["compared_adaptive_levels"]
+    rows = []
+    for kind in ("adaptive", "uniform"):
+        for r in data["histories"][kind][:n] if kind == "adaptive" else data["histories"][kind]:
+            rows.append([kind, r["level"], r["dofs"], f"{r['eta']:.4e}", f"{r['energy_error']:.4e}",
+                         f"{r['eta'] / r['energy_error']:.2f}", r["newton_iterations"]])
+    s.tables.append((f"reference: adaptive level {ref['from_adaptive_level']} refined uniformly, {ref['dofs']} dofs, "
+                     f"Π_ref = {ref['energy']:.10e}, η_ref = {ref['eta']:.4e}",
+                     ["run", "level", "dofs", "η", "E_h = (2(Π(u_h) − Π_ref))^½", "η/E_h", "Newton"], rows))
+    c = fichera_summary(data)
+    s.tables.append((f"slopes against dofs (adaptive: last {FICHERA_FIT} compared levels, uniform: last 3), and the dofs "
+                     "adaptive refinement needs for the finest uniform level's value",
+                     ["quantity", "adaptive", "uniform", "uniform/adaptive dofs"],
+                     [["η", f"{c['adaptive_eta']:.3f}", f"{c['uniform_eta']:.3f}", f"{c['ratio_eta']:.1f}"],
+                      ["energy error E_h", f"{c['adaptive_energy_error']:.3f}", f"{c['uniform_energy_error']:.3f}",
+                       f"{c['ratio_energy_error']:.1f}"]]))
+    for key, name in (("energy_error", "energy error E_h"), ("eta", "η")):
+        s.check(f"adaptive slope of {name}", f"{c[f'adaptive_{key}']:.3f}", f"≤ {FICHERA_ADAPTIVE_SLOPE} "
+                "(optimal −1/3)", c[f"adaptive_{key}"] <= FICHERA_ADAPTIVE_SLOPE)
+        s.check(f"uniform slope of {name} is reduced", f"{c[f'uniform_{key}']:.3f}",
+                f"flatter than adaptive by ≥ {FICHERA_SLOPE_GAP}",
+                c[f"uniform_{key}"] >= c[f"adaptive_{key}"] + FICHERA_SLOPE_GAP)
+    s.check("dofs for the same energy error", f"uniform/adaptive = {c['ratio_energy_error']:.1f}",
+            f"≥ {FICHERA_DOF_RATIO:g}", c["ratio_energy_error"] >= FICHERA_DOF_RATIO)
+    return s
+
+
+# --- penalty3d ---------------------------------------------------------------------------------------------
+
+def penalty3d(data):
+    s = penalty_2d(data)
+    s.key, s.title = "penalty3d", TITLES["penalty3d"]
+    caption, headers, rows = s.tables[0]
+    s.tables[0] = (caption.replace(f"mesh {data['mesh'][0]}×{data['mesh'][1]}",
+                                   "box " + "×".join(map(str, data["mesh"]))), headers, rows)
+    return s
+
+
+# --- parallel3d --------------------------------------------------------------------------------------------
+
+COMPARED = ("eta", "eta_1", "eta_2", "eta_3", "eta_4", "zeta", "h1_error", "l2_error", "augmented_error",
+            "contact_resultant", "elastic_energy", "contact_area", "max_contact_pressure")
+
+
+def parallel3d(data):
+    s = Section("parallel3d", TITLES["parallel3d"])
+    ranks = sorted(data)
+    base = data[ranks[0]]
+    rows, worst, exact_bad, lin_bad = [], (0.0, ""), [], []
+    for run in ("manufactured3d", "fichera", "hertz3d"):
+        for i, r0 in enumerate(base[run]):
+            others = [data[n][run][i] for n in ranks]
+            rel = max((abs(o[key] - r0[key]) / max(abs(r0[key]), 1e-300) for key in COMPARED if key in r0
+                       for o in others), default=0.0)
+            if rel > worst[0]:
+                worst = (rel, f"{run} L{i}")
+            for key in ("dofs", "cells", "newton_iterations", "marked"):
+                if len({o.get(key) for o in others}) > 1:
+                    exact_bad.append(f"{run} L{i} {key}: {[o.get(key) for o in others]}")
+            lin = [o["linear_iterations"] for o in others]
+            if max(lin) - min(lin) > LINEAR_ITS_RTOL * max(lin):
+                lin_bad.append(f"{run} L{i}: {lin}")
+            rows.append([run, i, r0["dofs"], "/".join(str(o["newton_iterations"]) for o in others),
+                         "/".join(str(o["linear_iterations"]) for o in others),
+                         "/".join(str(o.get("marked", "–")) for o in others), f"{r0['eta']:.10e}", f"{rel:.1e}"])
+    s.tables.append((f"ranks {ranks}: per level, Newton / linear iterations and marked cells on each rank count, η on "
+                     "1 rank, the largest relative difference of η, η_i, ζ, errors, force, energy, contact area, "
+                     "peak pressure", ["run", "level", "dofs", "Newton", "linear", "marked", "η (1 rank)",
+                                       "max rel diff"], rows))
+    s.check("η, η_i, ζ, errors, force, energy, contact area agree", f"max rel. diff {worst[0]:.1e} ({worst[1]})",
+            f"< {PARALLEL_RTOL_3D:g}", worst[0] < PARALLEL_RTOL_3D)
+    s.check("dofs, cells, Newton iterations, marked cells identical",
+            "identical" if not exact_bad else "; ".join(exact_bad[:3]), "identical", not exact_bad)
+    s.check("linear iterations", "within tolerance" if not lin_bad else "; ".join(lin_bad[:3]),
+            f"within {100 * LINEAR_ITS_RTOL:.0f} %", not lin_bad)
+    return s
+
+
+BUILDERS = {"manufactured3d": manufactured3d, "hertz3d": hertz3d, "fichera": fichera, "penalty3d": penalty3d,
+            "parallel3d": parallel3d}
