@@ -1,7 +1,7 @@
 """The problem-file schema: every key with its type, meaning, whether it is required and its default.
 
 One table (:data:`KEYS`) serves the TOML reader, the ``--set`` overrides, :meth:`Problem.from_dict` and the
-key reference in the README (``python3 -m nc_dolfinx.schema`` prints it). Nothing about the physics has a
+key reference in the README (:func:`reference_markdown`; ``docs/update_readme_keys.py`` rewrites it there). Nothing about the physics has a
 silent default: E, ν, c_n and m_n are required, unknown sections and keys are errors that name the key
 (with a "did you mean" suggestion), and loads default to zero only where the reference says so.
 
@@ -394,18 +394,11 @@ def _copy(value):
 
 
 def reference_markdown():
-    """The key reference as Markdown (for the README)."""
+    """The key reference as Markdown (for the README): one table per section."""
     lines = []
-    for section in SECTIONS:
-        keys = [k for k in KEYS if k.path == section or k.path.startswith(section + ".")]
-        keys = [k for k in keys if k.kind != "table"]
-        if not keys:
-            continue
-        heading = "top level" if section in ("title", "description") else f"[{section}]"
-        if section == "description":
-            continue
-        if section == "title":
-            keys = [k for k in KEYS if k.path in ("title", "description")]
+    groups = [("top level", ("title", "description"))] + [(f"[{s}]", (s,)) for s in SECTIONS[2:]]
+    for heading, sections in groups:
+        keys = [k for k in KEYS if k.kind != "table" and k.path.split(".")[0] in sections]
         lines += [f"**{heading}**", "", "| key | type | default | meaning |", "|---|---|---|---|"]
         for k in keys:
             default = "**required**" if k.required else "–" if k.default is None else f"`{_show(k.default)}`"
@@ -421,7 +414,3 @@ def _show(value):
     if isinstance(value, dict):
         return "{}"
     return str(value)
-
-
-if __name__ == "__main__":
-    print(reference_markdown())

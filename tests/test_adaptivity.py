@@ -1,7 +1,6 @@
 """Adaptivity wins on the singular `corner` case; the `hertz` case approaches 2D Hertz contact."""
 import numpy as np
 import pytest
-from mpi4py import MPI
 
 from conftest import ROOT
 import dolfinx
