@@ -29,25 +29,26 @@ def generate_and_write(out, dim=2, before_writing=None):
 
 
 def jitter_nodes(amplitude, seed=1):
-    """Move every node by a random offset of at most ``amplitude`` per coordinate, within its geometric
-    entity: nodes inside the volume freely, nodes on a plane within it, nodes on a straight line along it,
-    corner nodes not at all. Only for models whose surfaces are planes and curves straight lines normal to
-    a coordinate axis, where "within" means: the coordinates that are constant on the entity stay fixed.
+    """Move every node by a random offset of at most ``amplitude`` per coordinate and project it back onto
+    its geometric entity (gmsh's orthogonal projection): nodes inside a volume move freely, nodes on a
+    surface stay on it, nodes on a curve on it, corner nodes do not move.
 
     Why: DOLFINx's Plaza refinement breaks a tie between equally long edges of a face by global vertex
     numbers, which depend on the partition. A mesh with many exactly equal edge lengths (a uniform size on a
-    box) is then refined differently on 1, 2 and 3 ranks; after the jitter no two edges of a face have the
-    same length (nor, therefore, do those of the refined faces, whose edges are halves of parent edges)."""
+    box, or the regular patterns gmsh makes on planes) is then refined differently on 1, 2 and 3 ranks;
+    after the jitter no two edges of a face have the same length (nor, therefore, do those of the refined
+    faces, whose edges are halves of parent edges and new edges in general position)."""
     rng = np.random.default_rng(seed)
     for dim in (1, 2, 3):
         for _, tag in gmsh.model.getEntities(dim):
             nodes, coords, _ = gmsh.model.mesh.getNodes(dim, tag, includeBoundary=False)
             if len(nodes) == 0:
                 continue
-            coords = coords.reshape(-1, 3)
-            _, closure, _ = gmsh.model.mesh.getNodes(dim, tag, includeBoundary=True)  # (OCC boxes are loose)
-            free = np.ptp(closure.reshape(-1, 3), axis=0) > 1e-9 if dim < 3 else np.ones(3, bool)
-            assert free.sum() == dim, f"entity ({dim}, {tag}) is not axis-aligned"
-            moved = coords + rng.uniform(-amplitude, amplitude, coords.shape) * free
-            for node, x in zip(nodes, moved):
-                gmsh.model.mesh.setNode(int(node), list(x), [])
+            moved = coords + rng.uniform(-amplitude, amplitude, coords.shape)
+            if dim < 3:
+                moved, parametric = gmsh.model.getClosestPoint(dim, tag, moved)
+                parametric = np.reshape(parametric, (len(nodes), dim))
+            else:
+                parametric = np.zeros((len(nodes), 0))
+            for node, x, uv in zip(nodes, np.reshape(moved, (-1, 3)), parametric):
+                gmsh.model.mesh.setNode(int(node), list(x), list(uv))

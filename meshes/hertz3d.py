@@ -16,7 +16,8 @@ slivers under them). The sphere is therefore built with its axis along x: its po
 (−R, 0, R) are on the clamped edge or outside the quarter, far from the contact point (0, 0, 0).
 
 The size is H_MIN near the contact point (within X_FINE of it), growing with slope GROWTH away from it,
-up to H_MAX. Refinement in the solver only bisects edges, so the level-0 facets are the resolution of the
+up to H_MAX; every node is then moved at random by at most H_MIN/100 within its surface or curve, so
+that no two edges of a face are equally long and refinement is the same on any number of ranks. Refinement in the solver only bisects edges, so the level-0 facets are the resolution of the
 spherical surface for good: their kinks (angle ~ h/R) would give pressure spikes that grow under refinement
 (see meshes/hertz.py). The case therefore takes the gap from the exact sphere (its height above the plane
 at (x, y)), which is smooth whatever the facets, and H_MIN only has to resolve the contact zone.
@@ -28,7 +29,7 @@ import sys
 from pathlib import Path
 
 import gmsh
-from gmsh_common import generate_and_write, name_groups
+from gmsh_common import generate_and_write, jitter_nodes, name_groups
 
 R = 1.0
 X_C = 0.5 * R                          # the contact group is the cap within this distance of the z-axis
@@ -37,6 +38,7 @@ H_MAX = R / 5                          # far from the contact
 H_MIN = R / 40                         # near the contact point (the contact radius is ~0.1 R)
 X_FINE = 0.15 * R                      # ... up to this distance from it
 GROWTH = 0.35                          # size gradient away from that region
+JITTER = 0.01 * H_MIN                  # random node offsets (gmsh_common.jitter_nodes): no exactly equal edges
 # The mesh ships with the package, beside its problem file.
 OUT = Path(__file__).resolve().parent.parent / "nc_dolfinx" / "cases" / (Path(__file__).stem + ".msh")
 
@@ -88,7 +90,7 @@ def main(out=OUT):
         volumes, groups = quarter_ball()
         name_groups(groups, volumes, dim=3)
         size_field()
-        generate_and_write(out, dim=3)
+        generate_and_write(out, dim=3, before_writing=lambda: jitter_nodes(JITTER))
     finally:
         gmsh.finalize()
 

