@@ -2,12 +2,15 @@
 # Installs what nc_dolfinx needs on Debian bookworm, as root, and nothing that is already there.
 # Used by the README quickstart, .ci/run and the Dockerfile alike. Idempotent.
 # libopenblas0-serial replaces the reference BLAS under MUMPS (LU/Cholesky about 2x faster, measured).
+# python3-venv and python3-setuptools: `pip install .` into a venv on top of these packages
+#   /usr/bin/python3 -m venv --system-site-packages VENV && VENV/bin/pip install --no-build-isolation .
+# (tests/test_packaging.py does exactly that).
 #   sh install.sh              the solver, its tests and plots
 #   sh install.sh --paraview   also ParaView (pvpython) and Xvfb, to render the README picture
 set -eu
 PACKAGES="python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-gmsh python3-h5py
 python3-numpy python3-scipy python3-sympy python3-matplotlib python3-pytest openmpi-bin gcc python3-dev
-libopenblas0-serial"
+libopenblas0-serial python3-venv python3-setuptools"
 if [ "${1:-}" = "--paraview" ]; then
     PACKAGES="$PACKAGES paraview python3-paraview xvfb xauth"
 fi

@@ -2,19 +2,24 @@
 
 Any argument starting with ``-`` that is not one of ours is a PETSc option (``-snes_monitor``,
 ``-ksp_type cg``, ``-pc_type gamg`` …); it is set under the solver's prefix, overriding the preset and the
-problem file. Bad input ends the run with one line ``nc_dolfinx: error: …`` and exit status 1.
+problem file; one that no solver reads is an error (:mod:`nc_dolfinx.petsc_options`).
+
+Exit status: 0 success; 1 bad input (one line ``nc_dolfinx: error: …`` naming the key, file or option, on
+every rank together); 3 an internal error (under MPI the ranks are then aborted, so that none is left
+waiting for one that failed); 130 interrupted (Ctrl-C, or SIGTERM from mpirun): the finished levels stay.
 """
 import argparse
-import dataclasses
 import difflib
-import logging
+import os
+import sys
 import time
 
 from mpi4py import MPI
 
+from . import interrupt
 from .errors import InputError
 
-EXIT_INPUT, EXIT_INTERNAL = 1, 3
+EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 3, 130
 
 
 class _Parser(argparse.ArgumentParser):
@@ -24,14 +29,15 @@ class _Parser(argparse.ArgumentParser):
 
 def parser():
     p = _Parser(
-        prog="run_cases.py",
+        prog=_program_name(),
         description="Normal compliance contact (Fernández & Hild) with a residual estimator and "
                     "adaptive refinement. Unknown -options are passed to PETSc (SNES/KSP/PC).",
         epilog="Example: mpirun -n 2 python3 run_cases.py block --refine adaptive --levels 6 -snes_monitor")
     p.add_argument("cases", nargs="*", metavar="CASE_OR_FILE",
                    help="built-in case name (see --list) or a .toml problem file; default: block")
     p.add_argument("--list", action="store_true", help="list the built-in cases and exit")
-    p.add_argument("--out", default=None, help="output directory (default: results/CASE)")
+    p.add_argument("--out", default=None, help="output folder, empty or new (default: results/CASE; "
+                                                  "with several cases OUT/CASE)")
     p.add_argument("--refine", choices=("none", "uniform", "adaptive"), default=None)
     p.add_argument("--levels", type=int, default=None, help="number of levels (solves)")
     p.add_argument("--theta", type=float, default=None, help="marking parameter (default 0.5)")
@@ -48,6 +54,11 @@ def parser():
                         "plot both in convergence.png (history_uniform.csv)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a problem-file entry, e.g. --set contact.m_n=2 (repeatable)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the earlier nc_dolfinx run in --out (the folder is emptied when the new run "
+                        "writes its first level); a folder nc_dolfinx did not write is never emptied")
+    p.add_argument("--allow-unused-petsc-options", action="store_true",
+                   help="accept PETSc options that no solver reads (a warning instead of an error)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     return p
@@ -84,15 +95,26 @@ def _is_number(text):
         return False
 
 
+def _program_name():
+    name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else ""
+    return name if name in ("run_cases.py", "nc-dolfinx") else "python3 -m nc_dolfinx"
+
+
 def main(argv=None):
+    """The command line; returns the exit status (see the module's docstring)."""
     comm = MPI.COMM_WORLD
+    handlers = interrupt.install(comm)
+    try:
+        return _main(argv, comm)
+    finally:
+        interrupt.restore(handlers)
+
+
+def _main(argv, comm):
     say = (lambda text: print(text, flush=True)) if comm.rank == 0 else (lambda text: None)
+    args, current = None, []
     try:
         args, rest = parser().parse_known_args(argv)
-    except InputError as err:
-        say(f"nc_dolfinx: error: {err}")
-        return EXIT_INPUT
-    try:
         if args.list:
             from . import cases
             for name, title in cases.available().items():
@@ -100,17 +122,58 @@ def main(argv=None):
             return 0
         ours = [a.option_strings[-1].lstrip('-') for a in parser()._actions if a.option_strings]
         cli_options = petsc_options(rest, ours)
-        for case in args.cases or [_default_case()]:
-            run_case(case, args, cli_options, comm, say)
+        runs = prepare_runs(args, cli_options, comm, say)
+        for run in runs:
+            current[:] = [run]
+            run_case(run, args, comm, say)
         return 0
+    except KeyboardInterrupt:
+        return _interrupted(current, comm, say)
     except InputError as err:
-        say(f"nc_dolfinx: error: {err}")
+        if interrupt.received():
+            return _interrupted(current, comm, say)
+        run = current[0] if current else None
+        say(f"nc_dolfinx: error: {run.stage_name + ': ' if run and run.history else ''}{err}")
+        if run and run.kept:
+            say(f"nc_dolfinx: {run.kept}")
         return EXIT_INPUT
     except Exception as err:  # anything else is our bug or the system's: still one line unless --debug
-        if args.debug:
-            raise
-        say(f"nc_dolfinx: internal error: {type(err).__name__}: {err} (rerun with --debug for details)")
+        if interrupt.received():  # e.g. KeyboardInterrupt inside a PETSc callback, re-raised as PETSc.Error
+            return _interrupted(current, comm, say)
+        return _internal_error(err, args, comm)
+
+
+def _interrupted(current, comm, say):
+    run = current[0] if current else None
+    if run and run.reason:
+        say(f"nc_dolfinx: {run.reason}; {run.kept or 'no level was finished'}")
+    else:
+        say("nc_dolfinx: interrupted")
+    if comm.size > 1 and comm.rank == 0 and not isinstance(sys.exc_info()[1], interrupt.CollectiveInterrupt):
+        # The other ranks carry on (see interrupt.py) and may wait in a collective for this one:
+        # MPI_Finalize would wait for them. mpirun ends them once this rank has gone.
+        sys.stdout.flush()
+        os._exit(EXIT_INTERRUPTED)
+    return EXIT_INTERRUPTED
+
+
+def _internal_error(err, args, comm):
+    """Print one line (a traceback with --debug) and, under MPI, abort every rank: the others may be
+    waiting in a collective for this one. Rank 0 speaks first; another rank speaks only if rank 0 has
+    not aborted the job within half a second (then the error is that rank's alone)."""
+    if args is not None and args.debug:
+        import traceback
+        traceback.print_exc()
+    line = f"nc_dolfinx: internal error: {type(err).__name__}: {err} (rerun with --debug for details)"
+    if comm.size == 1:
+        print(line, flush=True)
         return EXIT_INTERNAL
+    if comm.rank != 0:
+        time.sleep(0.5)
+        line = line.replace("internal error:", f"internal error on rank {comm.rank}:")
+    print(line, flush=True)
+    sys.stderr.flush()
+    comm.Abort(EXIT_INTERNAL)
 
 
 def _default_case():
@@ -118,76 +181,53 @@ def _default_case():
     return DEFAULT_CASE
 
 
-def run_case(case, args, cli_options, comm, say):
+def prepare_runs(args, cli_options, comm, say):
+    """Every case's problem, settings and output folder, checked before the first one runs."""
     from pathlib import Path
 
-    from . import adaptive, cases, output, problem as problem_module, reference, schema
-    from .log import show_progress
-    path = cases.resolve(case)
-    problem = problem_module.load_problem(path, args.set)
-    solver_changes = {key: schema.convert(key, value, option) for key, value, option in
-                      (("solver.preset", args.preset, "--preset"), ("solver.load_steps", args.load_steps, "--load-steps"))
-                      if value is not None}
-    if solver_changes:
-        problem = problem.replace(solver_changes)
-    settings = adaptive.AdaptSettings.from_problem(
-        problem, refine=args.refine, levels=args.levels, theta=args.theta, marking=args.marking,
-        max_dofs=args.max_dofs, tol=args.tol, rtol=args.rtol)
-    if args.compare_uniform and settings.refine != "adaptive":
-        raise InputError(f"--compare-uniform compares with adaptive refinement, but refine = '{settings.refine}'")
-    multiple = len(args.cases) > 1
-    out = Path(args.out) / problem.name if (args.out and multiple) else Path(args.out or f"results/{problem.name}")
+    from . import adaptive, cases, problem as problem_module, schema
+    from .run import CaseRun
+    names = args.cases or [_default_case()]
+    runs, outs = [], set()
+    for case in names:
+        problem = problem_module.load_problem(cases.resolve(case), args.set)
+        given = (("solver.preset", args.preset, "--preset"), ("solver.load_steps", args.load_steps, "--load-steps"))
+        changes = {key: schema.convert(key, value, option) for key, value, option in given if value is not None}
+        if changes:
+            problem = problem.replace(changes)
+        settings = adaptive.AdaptSettings.from_problem(
+            problem, refine=args.refine, levels=args.levels, theta=args.theta, marking=args.marking,
+            max_dofs=args.max_dofs, tol=args.tol, rtol=args.rtol)
+        if args.compare_uniform and settings.refine != "adaptive":
+            raise InputError(f"--compare-uniform compares with adaptive refinement, but refine = '{settings.refine}'")
+        if args.out and len(names) > 1:
+            out = Path(args.out) / problem.name
+        else:
+            out = Path(args.out or f"results/{problem.name}")
+        if out.absolute() in outs:
+            raise InputError(f"two cases would write to '{out}' (case '{case}' given twice?)")
+        outs.add(out.absolute())
+        run = CaseRun(problem, settings, out, args, cli_options, comm, say)
+        run.folder.check()
+        runs.append(run)
+    return runs
+
+
+def run_case(run, args, comm, say):
+    from .log import logger, show_progress
+    problem, settings = run.problem, run.settings
     handler = None if args.quiet else show_progress(comm=comm)
     say(f"{problem.name}: {problem.title} [{comm.size} rank(s), refine={settings.refine}, "
-        f"levels={settings.levels}] -> {out}")
-    writer = output.ResultWriter(out, comm)
-    start = time.perf_counter()
+        f"levels={settings.levels}] -> {run.out}")
     try:
-        def write_level(level):
-            writer.write_functions(f"levels/level_{level.row['level']:02d}.xdmf", level.u.function_space.mesh,
-                                   [level.u, *level.estimate.fields.values()])
-
-        result = adaptive.adapt(problem, settings, comm=comm, petsc_options=cli_options, on_level=write_level)
-        final, history = result.final, result.history
-        mesh = final.u.function_space.mesh
-        writer.write_functions("solution.xdmf", mesh, [final.u, *output.postprocess_fields(final.u, final.fields),
-                                                        *final.estimate.fields.values()])
-        comparisons = reference.compare(problem, history[-1])
-        summary = {
-            "problem": problem.name, "title": problem.title, "source": str(path), "ranks": comm.size,
-            "refine": settings.refine, "levels": len(history), "m_n": problem["contact.m_n"],
-            "stop_reason": result.stop_reason, "notes": final.fields.notes, "resolved": problem.to_dict(),
-            **history[-1],
-            "time_total": time.perf_counter() - start,
-            "reference": [{"quantity": q, "computed": c, "reference": r} for q, c, r in comparisons],
-        }
-        writer.write_json("summary.json", summary)
-        writer.write_json("history.json", history)
-        writer.write_csv("history.csv", history)
-        histories = {settings.refine: history}
-        if args.compare_uniform and settings.refine == "adaptive":
-            # stop uniform refinement once it has as many dofs as the adaptive run's last level
-            uniform = dataclasses.replace(settings, refine="uniform",
-                                          max_dofs=min(settings.max_dofs or history[-1]["dofs"],
-                                                       history[-1]["dofs"]))
-            if not args.quiet:
-                say("  uniform refinement for comparison:")
-            histories["uniform"] = adaptive.adapt(problem, uniform, comm=comm, petsc_options=cli_options).history
-            writer.write_json("history_uniform.json", histories["uniform"])
-            writer.write_csv("history_uniform.csv", histories["uniform"])
-        if comm.rank == 0:
-            output.convergence_plot(writer.path_local("convergence.png"), histories,
-                                    problem.title.split(":")[0])
-        writer.commit()
-    except BaseException:
-        writer.abort()
-        raise
+        result = run.run()
     finally:
         if handler:
-            from .log import logger
             logger.removeHandler(handler)
-    for quantity, computed, ref in comparisons:
+    from . import reference
+    for quantity, computed, ref in reference.compare(problem, result.history[-1]):
         say(f"  {quantity}: computed {computed:.5g}, reference {ref:.5g} "
             f"({100 * (computed - ref) / ref:+.2f} %)")
-    say(f"  wrote {out}/ (summary.json, history.csv, solution.xdmf, levels/, convergence.png) "
-        f"in {time.perf_counter() - start:.1f} s")
+    say(f"  stopped: {run.reason}")
+    say(f"  wrote {run.out}/ (summary.json, history.csv, solution.xdmf, solution.pvd, levels/, convergence.png) "
+        f"in {time.perf_counter() - run.start:.1f} s")

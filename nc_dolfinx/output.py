@@ -1,149 +1,266 @@
-"""Results on disk, written atomically.
+"""Results on disk: one run per folder, each finished level written as soon as it is complete.
 
-Everything a run writes goes first to a staging directory ``OUT/.partial-XXXX`` and is moved to its final
-name only when the run has succeeded (:meth:`ResultWriter.commit`); a failed run removes the staging
-directory (:meth:`ResultWriter.abort`), so no half-written file ever appears under a final name.
+A :class:`ResultFolder` holds exactly one run. An existing folder is refused unless it is empty, or unless
+``overwrite`` is given and its ``summary.json`` says nc_dolfinx wrote it (so ``--overwrite`` can never empty
+a folder of other files); it is emptied when the new run writes its first level, so a run refused at
+level 0 leaves the old results alone. Files every rank writes (XDMF/HDF5, VTU pieces) go to a staging
+folder ``.partial-XXXX`` and are moved to their final names once complete (:meth:`ResultFolder.staged`);
+small files rank 0 writes (JSON, CSV, PVD) are written to a temporary name and renamed. A reader therefore
+never sees a half-written file, and a failed or interrupted run leaves its finished levels and no staging.
 
-The output contract (fields are added over time, never renamed):
-- ``summary.json``: the run (problem, ranks, final level's dofs/cells/iterations/η/errors, phase times);
-- ``history.csv`` / ``history.json``: one row per level;
-- ``solution.xdmf`` / ``.h5``: the final mesh with ``displacement`` (P1), ``stress``, ``von_mises`` (DG0),
-  ``contact_pressure`` (P1, lumped L² projection on Γ_C, zero elsewhere) and the indicators ``eta``,
-  ``eta_1`` … ``eta_4``, ``zeta`` (DG0);
-- ``levels/level_NN.xdmf``: mesh, displacement and indicators of every level;
-- ``convergence.png``: η (and the error when known) against dofs.
+Every decision about the file system is taken by rank 0 and broadcast (:func:`on_rank0`), and errors of
+files that every rank writes are gathered (:func:`on_every_rank`), so all ranks fail together with the same
+one-line error naming the path.
 """
 import csv
+import io
 import json
 import os
+import re
 import shutil
 import tempfile
+import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from dolfinx import fem, io
+from .errors import InputError
 
-from . import forms, physics
-from .quantities import contact_projection
+PROGRAM = "nc_dolfinx"  # summary.json "program": marks a folder --overwrite may empty
+_UMASK = os.umask(0)
+os.umask(_UMASK)  # (read once: mkstemp makes files 0600, results are made readable as usual)
 
 
-class ResultWriter:
-    def __init__(self, out_dir, comm):
-        self.comm, self.out = comm, Path(out_dir)
-        staging = None
-        if comm.rank == 0:
-            self.out.mkdir(parents=True, exist_ok=True)
-            staging = tempfile.mkdtemp(prefix=".partial-", dir=self.out)
-        self.staging = Path(comm.bcast(staging, root=0))
+def _os_error(err, what):
+    reason = err.strerror or str(err)
+    return f"cannot write '{what}': {reason}"
 
-    def path(self, name):
-        """Staged path for a file every rank writes (collective: the folder exists when it returns)."""
-        path = self.staging / name
-        if self.comm.rank == 0:
-            path.parent.mkdir(parents=True, exist_ok=True)
-        self.comm.barrier()
-        return path
 
-    def write_json(self, name, data):
-        if self.comm.rank == 0:
-            with open(self.path_local(name), "w") as fh:
-                json.dump(data, fh, indent=2, default=_jsonable)
-                fh.write("\n")
+def on_rank0(comm, action, what):
+    """Run ``action()`` on rank 0 and return its result on every rank; an OSError or InputError there is
+    raised on every rank as one InputError (naming ``what``)."""
+    result = error = None
+    if comm.rank == 0:
+        try:
+            result = action()
+        except InputError as err:
+            error = str(err)
+        except OSError as err:
+            error = _os_error(err, what)
+    if comm.size > 1:
+        result, error = comm.bcast((result, error), root=0)
+    if error is not None:
+        raise InputError(error)
+    return result
 
-    def write_csv(self, name, rows):
-        if self.comm.rank == 0 and rows:
-            keys = list(dict.fromkeys(k for row in rows for k in row))
-            with open(self.path_local(name), "w", newline="") as fh:
-                writer = csv.DictWriter(fh, fieldnames=keys)
-                writer.writeheader()
-                writer.writerows(rows)
 
-    def path_local(self, name):
-        """Staged path for a file written by rank 0 alone (not collective)."""
-        path = self.staging / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        return path
+def on_every_rank(comm, action, what):
+    """Run ``action()`` on every rank; the first rank's OSError is raised on every rank as InputError."""
+    error = None
+    try:
+        action()
+    except OSError as err:
+        error = _os_error(err, what)
+    errors = comm.allgather(error) if comm.size > 1 else [error]
+    first = next((e for e in errors if e is not None), None)
+    if first is not None:
+        raise InputError(first)
 
-    def write_functions(self, name, mesh, functions):
-        """One XDMF file (one mesh) holding the given functions."""
-        with io.XDMFFile(self.comm, self.path(name), "w") as xdmf:
-            xdmf.write_mesh(mesh)
-            for fn in functions:
-                xdmf.write_function(fn)
 
-    def commit(self):
-        """Move every staged file to its final name (files first into subfolders, then top level)."""
-        self.comm.barrier()
-        if self.comm.rank == 0:
-            for src in sorted(self.staging.rglob("*"), key=lambda p: (-len(p.parts), str(p))):
-                if src.is_file():
-                    dst = self.out / src.relative_to(self.staging)
-                    dst.parent.mkdir(parents=True, exist_ok=True)
-                    os.replace(src, dst)
-            shutil.rmtree(self.staging, ignore_errors=True)
-        self.comm.barrier()
+def written_by_us(folder):
+    """Whether ``folder/summary.json`` says nc_dolfinx wrote the folder."""
+    try:
+        return json.loads((Path(folder) / "summary.json").read_text()).get("program") == PROGRAM
+    except (OSError, ValueError, AttributeError):
+        return False
 
-    def abort(self):
-        if self.comm.rank == 0:
-            shutil.rmtree(self.staging, ignore_errors=True)
-            try:
-                self.out.rmdir()  # only if the run created it and left nothing in it
-            except OSError:
-                pass
+
+class ResultFolder:
+    """The output folder of one run (every method is collective unless it says otherwise)."""
+
+    def __init__(self, path, comm, overwrite=False):
+        self.path, self.comm, self.overwrite = Path(path), comm, overwrite
+        self.created = []        # folders this run created (removed again if it keeps nothing)
+        self.claimed = False     # whether this run has written into the folder
+        self.stage = None        # the staging folder while a level is being written
+        self.temporary = set()   # rank 0's temporary files while they exist
+
+    # --- before the run ---------------------------------------------------------------------------
+    def check(self):
+        """Refuse a folder that would mix runs or that --overwrite may not empty (read-only)."""
+        on_rank0(self.comm, self._check, self.path)
+
+    def _check(self):
+        where = f"--out '{self.path}'"
+        if self.path.exists() and not self.path.is_dir():
+            raise InputError(f"{where} is a file, not a folder")
+        ancestor = next((p for p in self.path.absolute().parents if p.exists()), None)
+        if not self.path.exists() and ancestor is not None and not ancestor.is_dir():
+            raise InputError(f"cannot create {where}: '{ancestor}' is a file")
+        if self.path.is_dir() and any(self.path.iterdir()):
+            if not self.overwrite:
+                raise InputError(f"{where} is not empty (a result folder holds one run): give --overwrite "
+                                 "to replace an earlier nc_dolfinx run, or another --out")
+            if not written_by_us(self.path):
+                raise InputError(f"{where} is not an nc_dolfinx result folder (no summary.json written by "
+                                 "nc_dolfinx): --overwrite empties only those; choose another --out")
+
+    def open(self):
+        """Create the folder (and missing parents) and make sure this run can write into it."""
+        self.check()
+        self.created = on_rank0(self.comm, self._open, self.path)
+
+    def _open(self):
+        missing = [p for p in [self.path.absolute(), *self.path.absolute().parents] if not p.exists()]
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise InputError(f"cannot create --out '{self.path}': {err.strerror or err}") from None
+        try:
+            fd, probe = tempfile.mkstemp(prefix=".probe-", dir=self.path)
+        except OSError as err:
+            raise InputError(f"cannot write into --out '{self.path}': {err.strerror or err}") from None
+        os.close(fd)
+        os.unlink(probe)
+        return [str(p) for p in missing]
+
+    # --- while the run writes -------------------------------------------------------------------
+    def claim(self):
+        """Before the first write: empty a folder --overwrite is replacing."""
+        if not self.claimed:
+            on_rank0(self.comm, self._empty, self.path)
+            self.claimed = True
+
+    def _empty(self):
+        self._check()  # still one of ours (or empty)
+        for entry in self.path.iterdir():
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()
+
+    @contextmanager
+    def staged(self):
+        """Collective: yields a staging folder (the same on every rank) for files every rank writes; on
+        success they are moved to the same relative names in the folder, on failure removed."""
+        self.claim()
+        self.stage = Path(on_rank0(self.comm, lambda: tempfile.mkdtemp(prefix=".partial-", dir=self.path),
+                                   self.path))
+        try:
+            yield self.stage
+            self.comm.barrier()
+            on_rank0(self.comm, self._publish, self.path)
+        finally:
+            if self.comm.rank == 0:
+                self.remove_stage()
+            self.stage = None
+
+    def _publish(self):
+        """Move every staged file to its final name (deepest first, so a file that names others, such as
+        an .xdmf or .pvtu beside its folder, comes last)."""
+        for src in sorted(self.stage.rglob("*"), key=lambda p: (-len(p.parts), str(p))):
+            if src.is_file():
+                dst = self.path / src.relative_to(self.stage)
+                dst.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(src, dst)
+
+    def remove_stage(self):
+        """Remove the staging folder (not collective). Another rank may still be finishing a file in it
+        when rank 0 is interrupted: try again briefly."""
+        for attempt in range(3):
+            if self.stage is None or not self.stage.exists():
+                return
+            shutil.rmtree(self.stage, ignore_errors=True)
+            time.sleep(0.05 * attempt)
+
+    def replace(self, name, write):
+        """Make ``name`` by ``write(temporary path)`` and a rename (not collective: the caller's rank).
+        The temporary name keeps the suffix (matplotlib chooses the format by it)."""
+        target = self.path / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}", dir=target.parent)
+        os.close(fd)
+        self.temporary.add(tmp)
+        try:
+            write(tmp)
+            os.chmod(tmp, 0o666 & ~_UMASK)
+            os.replace(tmp, target)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            self.temporary.discard(tmp)
+
+    # --- after a failure or an interruption (not collective) ----------------------------------------
+    def remove_levels(self, first, solution):
+        """Remove the files of levels ``first`` and later (and ``solution.*`` if ``solution``)."""
+        numbered = ((p, re.match(r"level_(\d+)", p.name)) for p in (self.path / "levels").glob("level_*"))
+        doomed = [p for p, match in numbered if match and int(match.group(1)) >= first]
+        doomed += list(self.path.glob("solution.*")) if solution else []
+        for path in doomed:
+            if path.name == "solution.pvd":
+                continue
+            shutil.rmtree(path) if path.is_dir() else path.unlink(missing_ok=True)
+        if (self.path / "levels").is_dir() and not any((self.path / "levels").iterdir()):
+            (self.path / "levels").rmdir()
+
+    def clean_up(self, kept):
+        """Remove staging and temporary files; if the run keeps nothing (``kept`` false), also the folders
+        it created. Never raises (the run is already failing)."""
+        try:
+            self.remove_stage()
+            for tmp in list(self.temporary):
+                Path(tmp).unlink(missing_ok=True)
+            if not kept:
+                for folder in self.created:
+                    Path(folder).rmdir()
+        except OSError:
+            pass
+
+
+def text_writer(text):
+    """A writer for :meth:`ResultFolder.replace`."""
+    def write(path):
+        with open(path, "w", newline="") as fh:
+            fh.write(text)
+    return write
+
+
+def json_writer(data):
+    return text_writer(json.dumps(data, indent=2, default=_jsonable) + "\n")
+
+
+def csv_columns(rows):
+    """The CSV header of history rows."""
+    return list(dict.fromkeys(k for row in rows for k in _flatten(row)))
+
+
+def csv_text(rows):
+    """CSV of history rows; a list value (the contact force) becomes columns NAME_x, NAME_y[, NAME_z]."""
+    flat = [_flatten(row) for row in rows]
+    keys = csv_columns(rows)
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=keys, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(flat)
+    return buffer.getvalue()
+
+
+def _flatten(row):
+    flat = {}
+    for key, value in row.items():
+        if isinstance(value, (list, tuple, np.ndarray)):
+            flat.update({f"{key}_{axis}": v for axis, v in zip("xyz", value)})
+        else:
+            flat[key] = value
+    return flat
 
 
 def _jsonable(value):
     if isinstance(value, (np.floating, np.integer)):
         return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
     if isinstance(value, Path):
         return str(value)
     raise TypeError(f"not JSON serialisable: {type(value)}")
-
-
-def postprocess_fields(u, fields):
-    """Stress, von Mises (DG0) and the nodal contact pressure (P1) for output."""
-    msh = u.function_space.mesh
-    T = fem.TensorFunctionSpace(msh, ("DG", 0), shape=(3, 3))  # plane strain: σ_zz = λ tr ε ≠ 0
-    Q = fem.FunctionSpace(msh, ("DG", 0))
-    stress = _interpolate(T, physics.stress_3x3(u, fields.lmbda, fields.mu), "stress")
-    vm = _interpolate(Q, physics.von_mises(u, fields.lmbda, fields.mu), "von_mises")
-    pressure = contact_projection(forms.contact_pressure(u, fields), fields, "contact_pressure")
-    return [stress, vm, pressure]
-
-
-def _interpolate(space, expr, name):
-    fn = fem.Function(space, name=name)
-    points = space.element.interpolation_points
-    fn.interpolate(fem.Expression(expr, points() if callable(points) else points))
-    return fn
-
-
-def convergence_plot(path, histories, title):
-    """η (and the H¹ error when known) against dofs, log–log, with a slope −1/2 guide."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    styles = {"adaptive": "o-", "uniform": "s--", "none": "d-"}
-    dofs_all = []
-    for label, rows in histories.items():
-        dofs = np.array([r["dofs"] for r in rows], dtype=float)
-        dofs_all.extend(dofs)
-        style = styles.get(label, "o-")
-        ax.loglog(dofs, [r["eta"] for r in rows], style, label=f"η ({label})")
-        if rows and rows[0].get("h1_error") is not None:
-            ax.loglog(dofs, [r["h1_error"] for r in rows], style, mfc="none",
-                      label=f"‖u − u_h‖₁ ({label})")
-    if dofs_all:
-        d = np.array(sorted(set(dofs_all)))
-        first = next(iter(histories.values()))[0]
-        ax.loglog(d, first["eta"] * (d / d[0]) ** -0.5, "k:", label="slope −1/2")
-    ax.set_xlabel("degrees of freedom")
-    ax.set_ylabel("estimator / error")
-    ax.set_title(title)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)

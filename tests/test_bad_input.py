@@ -114,6 +114,15 @@ GMSH_SCRIPT = textwrap.dedent('''
                  "duplicate_merged", "empty"):
         square(f"{out}/{kind}.msh", kind)
     box(f"{out}/box.msh")
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("Mesh.RecombineAll", 1)  # quadrilaterals
+    square_surface = gmsh.model.occ.addRectangle(0, 0, 0, 1, 1)
+    gmsh.model.occ.synchronize()
+    gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, [square_surface]), "body")
+    gmsh.model.mesh.generate(2)
+    gmsh.write(f"{out}/quad.msh")
+    gmsh.finalize()
 ''')
 
 
@@ -126,6 +135,7 @@ def msh(tmp_path_factory):
     done = subprocess.run([PYTHON, str(script), str(folder)], capture_output=True, text=True, timeout=TIMEOUT)
     assert done.returncode == 0, done.stdout + done.stderr
     (folder / "garbage.msh").write_text("this is not a gmsh file\n")
+    (folder / "binary.toml").write_bytes(bytes(range(256)) * 4)
     return folder
 
 
@@ -168,6 +178,10 @@ CASES = [
     ("unknown_section", lambda m, t: [block_with(t, "\n[contacts]\nm_n = 2\n")], "unknown section '[contacts]' (did you mean '[contact]'?)"),
     ("unknown_section_set", lambda m, t: ["block", *FAST, "--set", "solverr.x=1"], "unknown section '[solverr]' (did you mean '[solver]'?)"),
     ("not_a_mesh_file", lambda m, t: [gmsh_problem(m, "garbage")], "cannot read mesh file"),
+    ("binary_problem_file", lambda m, t: [m / "binary.toml"], "is not a text (UTF-8) TOML file"),
+    ("mesh_file_not_a_string", lambda m, t: ["block", *FAST, "--set", "mesh.file=3"],
+     "mesh.file must be a string, got 3"),
+    ("quad_mesh", lambda m, t: [gmsh_problem(m, "quad")], "Quadrilateral"),
     # boundary groups
     ("unknown_group_rectangle", lambda m, t: ["block", *FAST, "--set", 'mesh.dirichlet=["nosuch"]'],
      "dirichlet group 'nosuch' is not in the mesh"),
@@ -207,6 +221,8 @@ CASES = [
     ("nu_above_one_half", lambda m, t: ["block", *FAST, "--set", "material.nu=0.7"], "nu must lie in"),
     ("E_zero", lambda m, t: ["block", *FAST, "--set", "material.E=0"], "E must be > 0"),
     ("E_negative", lambda m, t: ["block", *FAST, "--set", "material.E=-5"], "E must be > 0"),
+    ("E_nan", lambda m, t: ["block", *FAST, "--set", "material.E=nan"], "material.E must be a finite number"),
+    ("c_n_inf", lambda m, t: ["block", *FAST, "--set", "contact.c_n=inf"], "contact.c_n must be a finite number"),
     # expressions
     ("malformed_expression", lambda m, t: ["block", *FAST, "--set", 'contact.c_n="x +* 2"'],
      "malformed expression 'x +* 2'"),
@@ -222,6 +238,10 @@ CASES = [
     ("snes_divergence", lambda m, t: ["block", *FAST, "-snes_max_it", "1"], "SNES diverged"),
     ("snes_divergence_basic_linesearch",
      lambda m, t: ["block", *FAST, "-snes_max_it", "1", "-snes_linesearch_type", "basic"], "SNES diverged"),
+    ("unused_petsc_option", lambda m, t: ["block", *FAST, "-snes_tyep", "foo"],
+     "PETSc option -snes_tyep was not used by any solver (misspelt?); --allow-unused-petsc-options accepts it"),
+    ("unused_petsc_options_in_file", lambda m, t: ["block", *FAST, "--set", "solver.petsc_options.ksp_typo=1",
+                                                   "-pc_tipe", "lu"], "PETSc options -ksp_typo, -pc_tipe were not used"),
     ("load_steps_not_integer", lambda m, t: ["block", *FAST, "--set", 'solver.load_steps="x"'],
      "solver.load_steps must be an integer"),
     # command line
@@ -231,6 +251,8 @@ CASES = [
      "'rectangle' is not a table"),
     ("unknown_cli_argument", lambda m, t: ["block", *FAST, "--no-such-option"],
      "unknown option '--no-such-option'"),
+    ("single_dash_option", lambda m, t: ["block", *FAST, "-levels", "3"],
+     "unknown option '-levels' (did you mean --levels?)"),
     ("bad_option_value", lambda m, t: ["block", *FAST, "--levels", "many"], "argument --levels"),
     ("bad_option_choice", lambda m, t: ["block", "--refine", "sideways"], "argument --refine"),
     ("bad_load_steps_option", lambda m, t: ["block", *FAST, "--load-steps", "0"], "--load-steps must be >= 1"),
@@ -247,7 +269,8 @@ def test_bad_input(msh, tmp_path, make_args, expected):
 
 # Representative cases on 2 ranks: one error line (not one per rank), non-zero exit, no results, no hang.
 MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_3d", "empty_mesh",
-             "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value"]
+             "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value", "unused_petsc_option",
+             "quad_mesh"]
 
 
 @pytest.mark.parametrize("name", MPI_CASES)
@@ -258,15 +281,40 @@ def test_bad_input_two_ranks(msh, tmp_path, name):
     assert_bad_input(result, expected, out, nprocs=2)
 
 
-def test_failed_run_keeps_existing_directory_clean(tmp_path):
-    """SNES divergence into an existing --out: its files stay, nothing is added, no staging left."""
+@pytest.mark.parametrize("overwrite", [False, True], ids=["plain", "overwrite"])
+def test_foreign_folder_is_left_alone(tmp_path, overwrite):
+    """An --out holding files nc_dolfinx did not write is refused, with or without --overwrite, untouched."""
     out = tmp_path / "out"
     out.mkdir()
     (out / "keep.txt").write_text("not ours\n")
-    result = cli(["block", "--refine", "uniform", "--levels", "2", "--set", "mesh.cells=[4,2]", "--quiet",
-                  "-snes_max_it", "1", "--out", out], cwd=tmp_path)
-    assert_bad_input(result, "SNES diverged", out, allowed=("keep.txt",))
+    result = cli(["block", *FAST, "--out", out] + (["--overwrite"] if overwrite else []), cwd=tmp_path)
+    expected = "is not an nc_dolfinx result folder" if overwrite else "is not empty"
+    assert_bad_input(result, expected, out, allowed=("keep.txt",))
     assert (out / "keep.txt").read_text() == "not ours\n"
+
+
+# --out places that cannot be a result folder, on 1, 2 and 3 ranks: one line from every rank together, no
+# rank left waiting (rank 0 decides about the file system and tells the others).
+OUT_CASES = [
+    ("out_is_a_file", lambda t: t / "F", "is a file, not a folder"),
+    ("out_under_a_file", lambda t: t / "F" / "sub", "is a file"),
+    ("out_cannot_be_created", lambda t: Path("/proc/nc_dolfinx_out"), "cannot create --out '/proc/nc_dolfinx_out'"),
+    ("out_not_empty", lambda t: t / "full", "is not empty (a result folder holds one run)"),
+]
+
+
+@pytest.mark.parametrize("nprocs", [1, 2, 3])
+@pytest.mark.parametrize("make_out, expected", [c[1:] for c in OUT_CASES], ids=[c[0] for c in OUT_CASES])
+def test_unusable_out(tmp_path, make_out, expected, nprocs):
+    (tmp_path / "F").write_text("a file\n")
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "notes.txt").write_text("someone's notes\n")
+    out = make_out(tmp_path)
+    result = cli(["block", *FAST, "--out", out], nprocs=nprocs, cwd=tmp_path)
+    assert_bad_input(result, expected, out if out.is_dir() else tmp_path / "nothing", nprocs=nprocs,
+                     allowed=("notes.txt",))
+    assert (tmp_path / "F").read_text() == "a file\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["F", "full"]
 
 
 # The positive controls: the same templates without the fault do run (so the failures above are the faults).

@@ -1,0 +1,82 @@
+"""What every output column and field means, with its sign convention.
+
+One table serves ``summary.json`` (``columns``, ``sign_conventions``) and the README's Output section
+(``python3 -m nc_dolfinx.columns`` prints the block between ``<!-- columns:start -->`` and
+``<!-- columns:end -->``). ν is the outward unit normal of the body, u_n = u·ν, p the contact pressure.
+"""
+
+SIGN_CONVENTIONS = [
+    "Coordinates and displacements are in the problem's own units, along the mesh axes (x, y[, z]).",
+    "Stress is positive in tension; 2D is plane strain, so the 3×3 stress has σ_zz = λ tr ε.",
+    "ν is the body's outward unit normal; u_n = u·ν > 0 moves Γ_C into the foundation.",
+    "Penetration (u_n − g_0)_+ >= 0; contact pressure p = c_n (u_n − g_0)_+^m_n = −σ_n >= 0 (compression).",
+    "contact_force = −∫_Γ_C p ν: the force the foundation exerts on the body (it points into the body).",
+]
+
+# name (CSV header; the JSON files keep contact_force as a list) -> meaning
+COLUMNS = {
+    "level": "refinement level, 0 = the initial mesh",
+    "dofs": "degrees of freedom: dimension × vertices (Dirichlet ones included)",
+    "cells": "cells (triangles in 2D, tetrahedra in 3D)",
+    "eta_1": "η_1 = (Σ_K η_1K²)^½, η_1K = h_K ‖f_K‖_K (body force; Definition 5)",
+    "eta_2": "η_2: jumps of σ(u_h)ν on interior facets and σ(u_h)ν − g on Γ_N (Definition 5)",
+    "eta_3": "η_3: tangential stress σ_t(u_h) on Γ_C (Definition 5)",
+    "eta_4": "η_4: residual of the law, c_n (u_hn − g_0)_+^m_n + σ_n(u_h) on Γ_C (Definition 5)",
+    "eta": "the estimator η = (Σ_K η_K²)^½, η_K² = η_1K² + … + η_4K²",
+    "zeta": "data oscillation ζ (§4.1)",
+    "newton_iterations": "Newton (SNES) iterations of the level",
+    "linear_iterations": "Krylov iterations summed over the level's Newton steps",
+    "converged_reason": "PETSc SNES converged reason",
+    "preconditioner_matrix": "matrix the preconditioner was built from at the end of the level (bulk | jacobian | auto)",
+    "max_contact_pressure": "max of the nodal contact pressure p >= 0 (lumped L² projection on Γ_C)",
+    "elastic_energy": "½ a(u_h, u_h)",
+    "contact_resultant": "∫_Γ_C p >= 0: the normal contact force",
+    "contact_force_x": "x component of −∫_Γ_C p ν, the force of the foundation on the body",
+    "contact_force_y": "y component of −∫_Γ_C p ν",
+    "contact_force_z": "z component of −∫_Γ_C p ν (3D)",
+    "contact_length": "measure of {p > 0} on Γ_C (2D; contact_area in 3D)",
+    "max_penetration": "max of the nodal penetration (u_hn − g_0)_+ >= 0 on Γ_C",
+    "max_displacement": "max over the vertices of |u_h|",
+    "l2_error": "‖u − u_h‖_0 (with an exact solution)",
+    "h1_error": "‖u − u_h‖_1 (with an exact solution)",
+    "augmented_error": "‖u − u_h‖_1 + ‖h^½ (σ_n(u) − σ_n(u_h))‖_Γ_C (Remark 9; with an exact solution)",
+    "effectivity": "η / ‖u − u_h‖_1",
+    "effectivity_augmented": "η / augmented_error",
+    "marked": "cells marked for refinement (adaptive)",
+    "time_mesh": "seconds: building the level-0 mesh (level 0 only)",
+    "time_refine": "seconds: the refinement that made this level's mesh",
+    "time_solve": "seconds: bind the problem and solve (7)",
+    "time_estimate": "seconds: the estimator",
+    "time_mark": "seconds: marking",
+    "time_output": "seconds: writing the level's files (rank 0's clock)",
+}
+ALIASES = {"contact_force": "contact_force_x", "contact_area": "contact_length"}
+
+FIELDS = {
+    "displacement": "P1 vector u_h (3 components in the VTU files: z = 0 in 2D)",
+    "contact_pressure": "P1 p >= 0 on Γ_C (lumped L² projection), 0 elsewhere",
+    "stress": "DG0 3×3 Cauchy stress σ(u_h) (row-major xx, xy, xz, yx, …)",
+    "von_mises": "DG0 von Mises stress of the 3×3 stress",
+    "eta": "DG0 η_K (eta_1 … eta_4: its parts η_1K … η_4K)",
+    "zeta": "DG0 oscillation ζ_K",
+    "region": "DG0 material region id of the cell (VTU files)",
+}
+
+
+def describe(name):
+    """The meaning of a column (None if undocumented: tests/test_output.py fails then)."""
+    return COLUMNS.get(ALIASES.get(name, name))
+
+
+def markdown():
+    """The README's column and field reference."""
+    lines = ["| column | meaning |", "|---|---|"]
+    lines += [f"| `{name}` | {doc} |" for name, doc in COLUMNS.items()]
+    lines += ["", "| field | meaning |", "|---|---|"]
+    lines += [f"| `{name}` | {doc} |" for name, doc in FIELDS.items()]
+    lines += ["", "Sign conventions:", ""] + [f"- {text}" for text in SIGN_CONVENTIONS]
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    print(markdown(), end="")

@@ -1,0 +1,74 @@
+"""Ctrl-C and SIGTERM: stop a run cleanly, keeping the levels it has finished.
+
+Serially, SIGINT (Ctrl-C) and SIGTERM raise ``KeyboardInterrupt`` where the program is. Under mpirun,
+Open MPI turns Ctrl-C into SIGTERM to every rank and sends SIGKILL one second later (MCA parameter
+``odls_base_sigkill_timeout``; checked with Open MPI 4.1). Were every rank to stop at once, rank 0 could be
+left inside a collective that another rank no longer enters, and be killed before it had marked the
+summary. So rank 0 alone stops at once (:class:`KeyboardInterrupt`): it records the interruption, removes
+staging files and leaves without ``MPI_Finalize``, and mpirun then ends the other ranks, which only note
+the signal and carry on meanwhile (so that rank 0's collectives still complete). A signal that reaches
+some ranks only (``kill PID``) is noticed by all ranks together at the next level (:func:`check`).
+"""
+import signal
+import sys
+
+from mpi4py import MPI
+
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_received = []
+
+
+class CollectiveInterrupt(KeyboardInterrupt):
+    """Raised on every rank together by :func:`check`: the ranks may still finish collectively."""
+
+
+def install(comm):
+    """Handle SIGINT and SIGTERM as described above; returns the previous handlers (for :func:`restore`)."""
+    _received.clear()
+
+    def handler(signum, frame):
+        _received.append(signum)
+        if comm.rank == 0:
+            ignore()  # mpirun may signal again while rank 0 cleans up: that must not interrupt the cleanup
+            raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    _initialise_libraries_that_set_signals()
+    previous = {sig: signal.getsignal(sig) for sig in _SIGNALS}
+    for sig in _SIGNALS:
+        signal.signal(sig, handler)
+    gmsh = sys.modules.get("gmsh")
+    if gmsh is not None and hasattr(gmsh, "oldsig"):
+        gmsh.oldsig = handler  # gmsh.finalize() restores the SIGINT handler seen at import: ours
+    return previous
+
+
+def _initialise_libraries_that_set_signals():
+    """PETSc installs C signal handlers when initialised, and importing gmsh sets SIGINT to SIG_DFL (and
+    its finalize() restores the handler found at import): both must happen before ours are installed."""
+    from petsc4py import PETSc  # noqa: F401
+    try:
+        import gmsh  # noqa: F401
+    except ImportError:
+        pass
+
+
+def restore(previous):
+    for sig, handler in previous.items():
+        signal.signal(sig, handler)
+
+
+def ignore():
+    for sig in _SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+
+
+def received():
+    """The name of the first signal this rank received (None if none)."""
+    return signal.Signals(_received[0]).name if _received else None
+
+
+def check(comm):
+    """Collective: raise :class:`CollectiveInterrupt` on every rank if any rank has been signalled."""
+    if comm.allreduce(received(), MPI.LOR):
+        ignore()
+        raise CollectiveInterrupt("signal")

@@ -1,0 +1,31 @@
+"""Fields for output beside the solution and its indicators, and the XDMF files that hold them."""
+from dolfinx import fem, io
+
+from . import forms, physics
+from .quantities import contact_projection
+
+
+def write_xdmf(comm, path, mesh, functions):
+    """One XDMF file (one mesh) holding the given functions (collective)."""
+    with io.XDMFFile(comm, path, "w") as xdmf:
+        xdmf.write_mesh(mesh)
+        for fn in functions:
+            xdmf.write_function(fn)
+
+
+def postprocess_fields(u, fields):
+    """Stress (3×3: plane strain has σ_zz = λ tr ε), von Mises (DG0) and the nodal contact pressure (P1)."""
+    msh = u.function_space.mesh
+    T = fem.TensorFunctionSpace(msh, ("DG", 0), shape=(3, 3))
+    Q = fem.FunctionSpace(msh, ("DG", 0))
+    stress = _interpolate(T, physics.stress_3x3(u, fields.lmbda, fields.mu), "stress")
+    vm = _interpolate(Q, physics.von_mises(u, fields.lmbda, fields.mu), "von_mises")
+    pressure = contact_projection(forms.contact_pressure(u, fields), fields, "contact_pressure")
+    return [stress, vm, pressure]
+
+
+def _interpolate(space, expr, name):
+    fn = fem.Function(space, name=name)
+    points = space.element.interpolation_points
+    fn.interpolate(fem.Expression(expr, points() if callable(points) else points))
+    return fn

@@ -1,0 +1,38 @@
+"""What a result was computed with: versions of the stack and the command line."""
+import importlib
+import os
+import platform
+import sys
+
+PACKAGES = ("nc_dolfinx", "dolfinx", "petsc4py", "mpi4py", "ufl", "ffcx", "basix", "gmsh", "numpy")
+
+
+def _version(module_name):
+    try:
+        module = importlib.import_module(module_name)
+    except Exception:  # a missing or broken optional package is recorded, not fatal
+        return None
+    version = getattr(module, "__version__", None)
+    if version is None:
+        from importlib import metadata
+        try:
+            version = metadata.version(module_name)
+        except metadata.PackageNotFoundError:
+            return None
+    return str(version)
+
+
+def versions():
+    """{package: version} of the stack, PETSc and the MPI library included."""
+    from mpi4py import MPI
+    from petsc4py import PETSc
+    found = {name: _version(name) for name in PACKAGES}
+    found["petsc"] = ".".join(map(str, PETSc.Sys.getVersion()))
+    found["mpi"] = MPI.Get_library_version().splitlines()[0].strip("\x00 ")
+    found["python"] = platform.python_version()
+    return found
+
+
+def command_line(comm):
+    """The command as given (``sys.argv``), the interpreter, the working directory and the ranks."""
+    return {"argv": list(sys.argv), "executable": sys.executable, "cwd": os.getcwd(), "ranks": comm.size}
