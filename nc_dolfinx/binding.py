@@ -196,9 +196,10 @@ def _symmetry_axis(domain, group_id, name):
     nodes = entities_to_geometry(msh._mesh, msh.topology.dim - 1, facets, False)
     x = msh.geometry.x[nodes.ravel(), :msh.geometry.dim]
     comm = domain.comm
-    # componentwise over the ranks (allreduce's MIN/MAX on pickled arrays would compare whole arrays)
-    low = np.min(comm.allgather(x.min(axis=0) if len(x) else np.full(msh.geometry.dim, np.inf)), axis=0)
-    high = np.max(comm.allgather(x.max(axis=0) if len(x) else np.full(msh.geometry.dim, -np.inf)), axis=0)
+    # elementwise over the coordinates (the pickling allreduce would compare whole arrays)
+    low, high = np.empty(msh.geometry.dim), np.empty(msh.geometry.dim)
+    comm.Allreduce(x.min(axis=0) if len(x) else np.full(msh.geometry.dim, np.inf), low, MPI.MIN)
+    comm.Allreduce(x.max(axis=0) if len(x) else np.full(msh.geometry.dim, -np.inf), high, MPI.MAX)
     extent = comm.allreduce(float(np.ptp(msh.geometry.x, axis=0).max()) if len(msh.geometry.x) else 0.0,
                             MPI.MAX)
     flat = np.flatnonzero(high - low <= 1e-10 * extent)

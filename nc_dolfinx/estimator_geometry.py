@@ -1,0 +1,127 @@
+"""Mesh helpers of the estimator (Definition 5, §4.1), for triangles and tetrahedra alike.
+
+- :func:`cell_geometry`: |K| (from the vertex coordinates) and h_K (the longest edge, = the diameter of a
+  simplex) of the owned cells.
+- :func:`facet_diameters`: h_F of the facet with a given local index (|E| for an edge, the longest edge of
+  a triangular face), for ζ's Neumann part.
+- :func:`slot_tags`: boundary facets sorted by their local index in their cell (their *slot*), so that
+  ``ds`` over one slot sees at most one facet per cell and per-facet means come out of a cellwise
+  assembly.
+- :func:`patch_sum`: Σ_{K' ⊂ ω_K} o_K' over the vertex patch ω_K, by inclusion–exclusion over the
+  sub-simplices of K, parallel with facet ghosts only.
+
+A facet's local index is its position in its cell's row of the cell-to-facet connectivity; the cell's
+geometry nodes are its vertices (P1 geometry).
+"""
+import math
+
+import numpy as np
+from mpi4py import MPI
+
+import dolfinx
+from dolfinx import fem, mesh as dmesh
+
+
+def _vertex_coordinates(msh, cells):
+    """(len(cells), tdim + 1, gdim) vertex coordinates of local ``cells`` (P1 geometry)."""
+    tdim, gdim = msh.topology.dim, msh.geometry.dim
+    nodes = msh.geometry.dofmap.array.reshape(-1, tdim + 1)[cells]
+    return msh.geometry.x[:, :gdim][nodes]
+
+
+def _det(a):
+    """Determinants of a stack of 2×2 or 3×3 matrices, written out (the same round-off as by hand)."""
+    if a.shape[-1] == 2:
+        return a[..., 0, 0] * a[..., 1, 1] - a[..., 0, 1] * a[..., 1, 0]
+    return (a[..., 0, 0] * (a[..., 1, 1] * a[..., 2, 2] - a[..., 1, 2] * a[..., 2, 1])
+            - a[..., 0, 1] * (a[..., 1, 0] * a[..., 2, 2] - a[..., 1, 2] * a[..., 2, 0])
+            + a[..., 0, 2] * (a[..., 1, 0] * a[..., 2, 1] - a[..., 1, 1] * a[..., 2, 0]))
+
+
+def diameters(msh, dim, entities):
+    """Diameters (longest edge) of local mesh entities of dimension ``dim`` (DOLFINx's C++ ``h``)."""
+    return dolfinx.cpp.mesh.h(msh._mesh, dim, np.asarray(entities, dtype=np.int32))
+
+
+def cell_geometry(msh):
+    """|K| (area or volume) and h_K (longest edge) of the owned cells (P1 simplices)."""
+    tdim = msh.topology.dim
+    n_owned = msh.topology.index_map(tdim).size_local
+    X = _vertex_coordinates(msh, slice(0, n_owned))
+    steps = X[:, 1:] - X[:, :-1]  # v1 − v0, v2 − v1, …: the same determinant as v_i − v0
+    return np.abs(_det(steps)) / math.factorial(tdim), diameters(msh, tdim, np.arange(n_owned))
+
+
+def facet_diameters(msh, cells, local_facet):
+    """h_F of the facet with local index ``local_facet`` (opposite that vertex) of each of the ``cells``."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim, tdim - 1)
+    facets = msh.topology.connectivity(tdim, tdim - 1).array.reshape(-1, tdim + 1)[cells, local_facet]
+    return diameters(msh, tdim - 1, facets)
+
+
+def slot_tags(domain, groups):
+    """{i: meshtags of the exterior facets in ``groups`` whose local index in their cell is i, tagged 1 + k
+    for the k-th group}, for every i used on some rank (the local index is the same on every rank that
+    holds the cell, whoever owns the facet). The tags do not depend on i, so one compiled form serves
+    every slot."""
+    msh, tags = domain.mesh, domain.facet_tags
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    msh.topology.create_connectivity(tdim, tdim - 1)
+    f2c, c2f = msh.topology.connectivity(tdim - 1, tdim), msh.topology.connectivity(tdim, tdim - 1)
+    mask = np.isin(tags.values, groups)
+    facets, group_of = tags.indices[mask], tags.values[mask]
+    cells = f2c.array[f2c.offsets[facets]]  # an exterior facet has one cell
+    local_index = np.argmax(c2f.array.reshape(-1, tdim + 1)[cells] == facets[:, None], axis=1)
+    tag = (1 + np.searchsorted(groups, group_of)).astype(np.int32)
+    used = msh.comm.allreduce(int(sum(1 << int(i) for i in np.unique(local_index))), MPI.BOR)
+    return {i: dmesh.meshtags(msh, tdim - 1, facets[local_index == i], tag[local_index == i])
+            for i in range(tdim + 1) if used >> i & 1}
+
+
+def owned_values_with_ghosts(Q, owned_values, name="o"):
+    """A DG0 function on ``Q`` holding ``owned_values`` on the owned cells and the owners' on the ghosts."""
+    fn = fem.Function(Q, name=name)
+    fn.x.array[:len(owned_values)] = owned_values
+    fn.x.scatter_forward()
+    return fn
+
+
+def patch_sum(o, Q):
+    """Σ_{K' ⊂ ω_K} o_K' for every owned K (ω_K: the cells sharing a vertex with K), from owned-cell ``o``.
+
+    Inclusion–exclusion over the sub-simplices s of K (a cell K' ∈ ω_K meets K in one sub-simplex, whose
+    own sub-simplices count K' with alternating signs summing to one):
+        Σ_{K' ⊂ ω_K} o_K' = Σ_{d=0}^{tdim} (−1)^d Σ_{s ⊂ K, dim s = d} S_s,   S_s = Σ_{K' ∋ s} o_K'.
+    For vertices (and edges in 3D) S_s is added up over the owned cells of every rank (reverse scatter on
+    index_map(d) to the owners, forward scatter back). The facet and cell terms together are
+    (−1)^{tdim−1} (tdim·o_K + Σ_{N ~ K} o_N) (N: the facet neighbours, from the facet ghosts). In 2D this
+    is Σ_{x ∈ K} S_x − 2 o_K − Σ_N o_N; in 3D, cells sharing only an edge with K are not counted twice.
+    """
+    msh = Q.mesh
+    tdim = msh.topology.dim
+    n_owned = len(o)
+    total = 0.0
+    for d in range(tdim - 1):
+        msh.topology.create_entities(d)
+        msh.topology.create_connectivity(tdim, d)
+        per_cell = math.comb(tdim + 1, d + 1)
+        entities = msh.topology.connectivity(tdim, d).array.reshape(-1, per_cell)[:n_owned]
+        S = dolfinx.la.vector(msh.topology.index_map(d))
+        S.array[:] = np.bincount(entities.ravel(), weights=np.repeat(o, entities.shape[1]),
+                                 minlength=len(S.array))
+        S.scatter_reverse(dolfinx.la.ScatterMode.add)
+        S.scatter_forward()
+        term = S.array[entities].sum(axis=1)
+        total = term if d == 0 else total + (-1) ** d * term
+    sign = (-1) ** (tdim - 1)
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    o_all = owned_values_with_ghosts(Q, o).x.array
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    interior = np.flatnonzero(np.diff(f2c.offsets) == 2)
+    pairs = f2c.array[f2c.offsets[interior][:, None] + np.arange(2)]
+    neighbours = (np.bincount(pairs[:, 0], weights=o_all[pairs[:, 1]], minlength=len(o_all))
+                  + np.bincount(pairs[:, 1], weights=o_all[pairs[:, 0]], minlength=len(o_all)))
+    total = total + sign * tdim * o
+    return total + sign * neighbours[:n_owned]
