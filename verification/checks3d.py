@@ -34,41 +34,50 @@ def slope(rows, key, last=3, xkey="dofs"):
     return fitted_slope([r[xkey] for r in rows], [r[key] for r in rows])
 
 
+def fitted_levels(rows):
+    """The levels the manufactured3d expectations use: the last three, never level 0. On the coarsest box
+    (4³ cubes, 375 dofs) a third of the vertices lie on the boundary, so dofs grow by 5.8 instead of 8 on the
+    first refinement (slopes against dofs come out too steep), and the effectivity index is still moving."""
+    return rows[max(1, len(rows) - 3):]
+
+
 # --- manufactured3d --------------------------------------------------------------------------------------
 
 def manufactured3d(data):
     s = Section("manufactured3d", TITLES["manufactured3d"])
     runs, cfg = data["runs"], data["config"]
     cells = cfg["cells"]
+    fit = len(fitted_levels(runs[0]["rows"]))
     s.notes.append(f"{len(runs)} configurations, the unit cube with {cells}×{cells}×{cells}×6 tetrahedra refined "
-                   f"uniformly {cfg['levels'] - 1} times; slopes fitted against dofs over the last three levels.")
+                   f"uniformly {cfg['levels'] - 1} times; slopes and the effectivity spread over the last {fit} levels "
+                   "(never level 0).")
     rows, eff_rows = [], []
     bad = {"h1": [], "l2": [], "eta": [], "settle": []}
     for run in runs:
-        r = run["rows"]
+        r = fitted_levels(run["rows"])
         label = f"m={run['m']:g}, c={run['c']:g}"
         k = {key: slope(r, key) for key in ("h1_error", "l2_error", "eta", "eta_1", "eta_2", "eta_3", "eta_4",
                                              "zeta")}
         eff = [x["effectivity"] for x in r]
-        settle = spread(eff[-3:])
+        settle = spread(eff)
         rows.append([label, r[-1]["dofs"], f"{k['h1_error']:.3f}", f"{k['l2_error']:.3f}", f"{k['eta']:.3f}",
                      *(f"{k[key]:.2f}" for key in ("eta_1", "eta_2", "eta_3", "eta_4", "zeta")),
                      f"{eff[-1]:.3f}", f"{100 * settle:.1f} %", f"{r[-1]['effectivity_augmented']:.3f}",
                      r[-1]["newton_iterations"]])
-        eff_rows.append([label] + [f"{v:.3f}" for v in eff])
+        eff_rows.append([label] + [f"{x['effectivity']:.3f}" for x in run["rows"]])
         for name, key, bounds in (("h1", "h1_error", H1_SLOPE), ("l2", "l2_error", L2_SLOPE), ("eta", "eta", H1_SLOPE)):
             if not within(k[key], bounds):
                 bad[name].append(f"{label}: {k[key]:.3f}")
         if settle > EFF_SETTLE:
             bad["settle"].append(f"{label}: {100 * settle:.1f} %")
-    s.tables.append(("slopes against dofs (last three levels), effectivity on the finest level",
-                     ["config", "dofs", "H¹", "L²", "η", "η_1", "η_2", "η_3", "η_4", "ζ", "η/‖e‖_1", "spread(3)",
+    s.tables.append((f"slopes against dofs (last {fit} levels), effectivity on the finest level",
+                     ["config", "dofs", "H¹", "L²", "η", "η_1", "η_2", "η_3", "η_4", "ζ", "η/‖e‖_1", "spread",
                       "η/ẽ", "Newton"], rows))
     s.tables.append(("effectivity η/‖u − u_h‖_1 per level",
                      ["config"] + [f"L{i}" for i in range(len(runs[0]["rows"]))], eff_rows))
 
     def summary(key):
-        values = [slope(run["rows"], key) for run in runs]
+        values = [slope(fitted_levels(run["rows"]), key) for run in runs]
         return f"{min(values):.3f} … {max(values):.3f}"
 
     for name, key, bounds, what in (("h1", "h1_error", H1_SLOPE, "H¹ error"), ("l2", "l2_error", L2_SLOPE, "L² error"),
@@ -76,8 +85,8 @@ def manufactured3d(data):
         s.check(f"{what} slope against dofs, all configurations",
                 summary(key) + (f"; off: {bad[name]}" if bad[name] else ""),
                 f"{bounds[0]} … {bounds[1]}", not bad[name])
-    settles = [spread([x["effectivity"] for x in run["rows"][-3:]]) for run in runs]
-    s.check("effectivity η/‖e‖_1 settles", f"variation over the last 3 levels ≤ {100 * max(settles):.1f} %"
+    settles = [spread([x["effectivity"] for x in fitted_levels(run["rows"])]) for run in runs]
+    s.check("effectivity η/‖e‖_1 settles", f"variation over the last {fit} levels ≤ {100 * max(settles):.1f} %"
             + (f"; off: {bad['settle']}" if bad["settle"] else ""), f"≤ {100 * EFF_SETTLE:.0f} %", not bad["settle"])
     return s
 

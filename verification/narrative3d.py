@@ -1,5 +1,5 @@
 """The prose of the 3D sections of verification/report.md (every number in it is computed)."""
-from checks3d import FICHERA_FIT, TITLES, fichera_summary, slope
+from checks3d import FICHERA_FIT, TITLES, fichera_summary, fitted_levels, slope
 from common import fitted_slope
 
 
@@ -39,7 +39,7 @@ def _manufactured3d_after(m):
     runs = m["runs"]
     effs = [x["effectivity"] for r in runs for x in r["rows"][1:]]
     share = [(r["rows"][-1]["eta_3"] ** 2 + r["rows"][-1]["eta_4"] ** 2) / r["rows"][-1]["eta"] ** 2 for r in runs]
-    rates = {k: [slope(r["rows"], k) for r in runs] for k in ("eta_3", "eta_4", "zeta")}
+    rates = {k: [slope(fitted_levels(r["rows"]), k) for r in runs] for k in ("eta_3", "eta_4", "zeta")}
     return (f"Beyond level 0, η/‖u − u_h‖_1 lies in [{min(effs):.2f}, {max(effs):.2f}] over all m_n and c_n. On the finest "
             f"level the contact terms η_3² + η_4² are {100 * min(share):.2g}–{100 * max(share):.2g} % of η²; their slopes "
             f"against dofs are η_3 {min(rates['eta_3']):.2f}…{max(rates['eta_3']):.2f}, η_4 {min(rates['eta_4']):.2f}…"
@@ -122,8 +122,8 @@ def conclusions3d(state, results):
     out = []
     if "manufactured3d" in results:
         runs = results["manufactured3d"]["runs"]
-        h1 = [slope(r["rows"], "h1_error") for r in runs]
-        eta = [slope(r["rows"], "eta") for r in runs]
+        h1 = [slope(fitted_levels(r["rows"]), "h1_error") for r in runs]
+        eta = [slope(fitted_levels(r["rows"]), "eta") for r in runs]
         out.append(f"- **3D, manufactured.** H¹ slopes {min(h1):.3f}…{max(h1):.3f} and η slopes {min(eta):.3f}…{max(eta):.3f} "
                    f"against dofs (optimal −1/3) for m_n up to 3 and c_n/E over 4 decades ({state('manufactured3d')}).")
     if "hertz3d" in results:

@@ -21,7 +21,7 @@ import nc_dolfinx as nc
 
 CONFIG = {
     "quick": {
-        "manufactured3d": {"cells": 4, "levels": 3, "m": [1, 1.5, 2, 3], "c": [0.1, 1000]},
+        "manufactured3d": {"cells": 4, "levels": 3, "m": [1, 1.5, 2, 3], "c": [0.1, 100]},
         "hertz3d": {"levels": 4},
         "fichera": {"adaptive_levels": 7, "uniform_levels": 2, "reference_extra": 1},
         "penalty3d": {"cells": [8, 4, 4], "eps": [1e-5, 1e-6, 1e-7, 1e-8, 1e-9]},
