@@ -188,7 +188,7 @@ def our_solve(problem, domain, options, pc_matrix, initial=None, nullspace_on_K=
     out["transfer"] = time.perf_counter() - t if initial is not None else 0.0
     u.name = "displacement"
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields), options,
-                             pc_matrix)
+                             pc_matrix, forms.energy(u, fields))
     pmat = solver.snes.getJacobian()[1]  # the matrix the PC is built from (GAMG reads its near-nullspace)
     if nullspace_on_K and pmat.getNearNullSpace().handle == 0:  # exploration: give it the rigid-body modes
         pmat.setNearNullSpace(rigid_body_modes(V))
@@ -351,10 +351,10 @@ def worker(args):
     if first:
         row.update(t_setup_first=first["setup"], t_solve_first=first["solve"])
     row["t_linear"], row["linear_its"], row["t_linear_pc_setup"], row["linear_true_rel_residual"] = \
-        linear_solve(solver.K, solver.load, options, "lin_", s["nullspace"])
+        linear_solve(solver.K, solver.load, solver.options, "lin_", s["nullspace"])
     # the same solve to the nonlinear solve's accuracy: true residual ||L - K u|| <= snes_rtol ||L||
-    equal = {"ksp_norm_type": "unpreconditioned", "ksp_rtol": options.get("snes_rtol", 1e-10)}
-    row["t_linear_eq"], row["linear_eq_its"], _, _ = linear_solve(solver.K, solver.load, options, "lineq_",
+    equal = {"ksp_norm_type": "unpreconditioned", "ksp_rtol": solver.options.get("snes_rtol", 1e-10)}
+    row["t_linear_eq"], row["linear_eq_its"], _, _ = linear_solve(solver.K, solver.load, solver.options, "lineq_",
                                                                   s["nullspace"], equal)
     row["snes_atol"] = s["snes_atol"]
     solver.destroy()
@@ -392,10 +392,10 @@ def worker(args):
         row.update(nested_dofs=2 * child.num_vertices(), t_nested_setup=s2["setup"], t_transfer=s2["transfer"],
                    t_nested_solve=s2["solve"], nested_newton=s2["newton"], nested_krylov=s2["krylov"],
                    nested_pc_mode=s2["pc_mode"])
-        row["t_nested_linear"], row["nested_linear_its"], _, _ = linear_solve(solver2.K, solver2.load, options,
-                                                                             "lin_", s2["nullspace"])
+        row["t_nested_linear"], row["nested_linear_its"], _, _ = linear_solve(
+            solver2.K, solver2.load, solver2.options, "lin_", s2["nullspace"])
         row["t_nested_linear_eq"], row["nested_linear_eq_its"], _, _ = linear_solve(
-            solver2.K, solver2.load, options, "lineq_", s2["nullspace"], equal)
+            solver2.K, solver2.load, solver2.options, "lineq_", s2["nullspace"], equal)
         solver2.destroy()
         row["ratio_nested"] = row["t_nested_solve"] / row["t_nested_linear"]
         row["ratio_nested_eq"] = row["t_nested_solve"] / row["t_nested_linear_eq"]

@@ -4,10 +4,11 @@ Implements Fernández & Hild, "A posteriori error analysis for the normal compli
 discrete problem (7) with P1 elements in 2D (plane strain) and 3D, the estimator of Definition 5 and the
 SOLVE → ESTIMATE → MARK → REFINE loop, on DOLFINx 0.5, serial or under mpirun.
 
+    from mpi4py import MPI
     import nc_dolfinx as nc
     problem = nc.load_problem("block", ["contact.m_n=2"])     # a built-in case, a .toml file, or
     # problem = nc.Problem.from_dict({...})                   # the same keys in a dict
-    domain = nc.build_domain(problem)                         # or nc.rectangle / box / from_gmsh_model …
+    domain = nc.build_domain(problem, MPI.COMM_WORLD)         # or nc.rectangle / box / from_gmsh_model …
     solution = nc.solve(problem, domain)                      # u_h of (7)
     est = nc.estimate(solution.u, solution.fields)            # η_1 … η_4, η, ζ as DG0 fields
     child = nc.refine(domain, nc.mark(est, theta=0.5))        # one adaptive step
@@ -19,7 +20,7 @@ __version__ = "0.2.0"
 
 from .adaptive import AdaptSettings, Level, Result, Solution, adapt, solve
 from .binding import Fields, bind, build_domain
-from .cases import case_names, case_path
+from .cases import case_names, case_path, case_titles
 from .errors import InputError
 from .estimator import CELL_DEGREE, CONTACT_DEGREE, Estimate, assemble_cellwise, estimate, patch_sum
 from .forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure
@@ -29,23 +30,29 @@ from .meshes import Domain, box, from_dolfinx, from_gmsh, from_gmsh_model, recta
 from .problem import Problem, load_problem
 from .physics import lame, normal_stress, sigma
 from .quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
-from .reference import hertz_line_contact, hertz_sphere_contact
+from .reference import compare_with_reference, hertz_line_contact, hertz_sphere_contact
 from .refinement import refine, transfer
 
 quiet_compilers()
 
+DEFAULT_CASE = "block"
+"""The case the command line runs when none is named: the paper's setting (§2), adaptively."""
+
 # Gauss degrees used by the package (the verification report quotes them)
 QUADRATURE_DEGREES = {"contact_form": CONTACT_QUADRATURE_DEGREE, "contact_est": CONTACT_DEGREE,
                       "cell_est": CELL_DEGREE, "error": ERROR_DEGREE}
+"""Gauss degrees in use: ``contact_form`` for the Γ_C terms of (7), ``contact_est`` and ``cell_est`` for
+the contact and the cell/Neumann terms of the estimator (Definition 5), ``error`` for the errors of
+Remark 9 (the [estimator] table of a problem may change the estimator's)."""
 
 __all__ = [
-    "Problem", "load_problem", "case_names", "case_path",
+    "Problem", "load_problem", "case_names", "case_path", "case_titles", "DEFAULT_CASE",
     "Domain", "build_domain", "rectangle", "box", "from_gmsh", "from_gmsh_model", "from_dolfinx",
     "Fields", "bind", "Solution", "solve",
     "Estimate", "estimate", "mark", "refine", "transfer",
     "AdaptSettings", "Level", "Result", "adapt",
     "solution_quantities", "errors", "integrate", "contact_projection",
     "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure",
-    "assemble_cellwise", "patch_sum", "hertz_line_contact", "hertz_sphere_contact",
+    "assemble_cellwise", "patch_sum", "hertz_line_contact", "hertz_sphere_contact", "compare_with_reference",
     "InputError", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES",
 ]

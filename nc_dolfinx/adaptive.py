@@ -33,6 +33,7 @@ class Solution:
 
     @property
     def domain(self):
+        """The :class:`Domain` (mesh) of the solution."""
         return self.fields.domain
 
 
@@ -55,8 +56,7 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     else:
         u = refinement.transfer(initial, V)
     u.name = "displacement"
-    preset = "direct" if settings["preset"] == "auto" else settings["preset"]  # until the solver chooses
-    options = solver_options(preset, settings["petsc_options"], petsc_options)
+    options = solver_options(settings["preset"], settings["petsc_options"], petsc_options)
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
                              options, preconditioner_matrix or settings["preconditioner_matrix"])
     try:
@@ -68,7 +68,10 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
 
 @dataclass(frozen=True)
 class AdaptSettings:
-    """How the loop refines and when it stops (the problem's [adapt], see :meth:`from_problem`)."""
+    """How :func:`adapt` refines and when it stops (the problem's [adapt], see :meth:`from_problem`):
+    ``refine`` none | uniform | adaptive; ``levels`` the number of solves; ``theta`` and ``marking`` the
+    parameter and strategy of :func:`mark` (Dörfler's bulk criterion or the maximum strategy on the η_K
+    of Definition 5); ``max_dofs``, ``tol`` (η ≤ tol) and ``rtol`` (η ≤ rtol·η of level 0) stop earlier."""
     refine: str = "none"        # none | uniform | adaptive
     levels: int = 1
     theta: float = 0.5
@@ -123,7 +126,10 @@ class AdaptSettings:
 
 @dataclass
 class Level:
-    """What one level leaves behind; ``on_level`` receives it (the last one is the final solution)."""
+    """What one level of :func:`adapt` leaves behind; ``on_level`` receives it (the last one is the final
+    solution): the level's ``number``, its :class:`Solution` of (7), its :class:`Estimate` (Definition 5),
+    the history ``row`` (dofs, η_1 … η_4, η, ζ, Newton iterations, :func:`solution_quantities`, errors),
+    the ``marked`` cells and, on the last level, the ``stop_reason``."""
     number: int
     solution: Solution
     estimate: estimator.Estimate
@@ -133,26 +139,32 @@ class Level:
 
     @property
     def u(self):
+        """The level's displacement u_h."""
         return self.solution.u
 
     @property
     def fields(self):
+        """The level's :class:`Fields`."""
         return self.solution.fields
 
 
 @dataclass
 class Result:
-    """The levels' history rows and the final level."""
+    """What :func:`adapt` returns: the ``history`` rows of every level (dofs, the estimator of
+    Definition 5, quantities, errors, times) and the ``final`` :class:`Level`."""
     history: list
     final: Level
 
     @property
     def stop_reason(self):
+        """Why the loop stopped: levels | max_dofs | tol | rtol."""
         return self.final.stop_reason
 
 
 def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on_level=None):
-    """Run SOLVE → ESTIMATE → MARK → REFINE.
+    """Run SOLVE → ESTIMATE → MARK → REFINE: solve (7), evaluate the estimator of Definition 5, mark
+    (:func:`mark`) and refine (:func:`refine`), each level starting Newton from the previous level's
+    solution (nested iteration). Returns a :class:`Result`.
 
     ``settings``: AdaptSettings (default: the problem's [adapt]); ``domain``: the level-0 mesh (default:
     built from the problem's [mesh] on ``comm``, COMM_WORLD by default); ``on_level(level)`` is called
@@ -165,12 +177,10 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
         domain = build_domain(problem, comm or MPI.COMM_WORLD)
     times = {"mesh": time.perf_counter() - t0}  # then, on later levels, the refinement that made the mesh
     history, previous, eta0 = [], None, None
-    pc_matrix = None  # "auto" turns into "jacobian" for good once it switches
     for number in range(settings.levels):
         t = time.perf_counter()
         solution = solve(problem, domain, previous, petsc_options,
-                         None if number == 0 else 1, pc_matrix)
-        pc_matrix = solution.stats.preconditioner_matrix
+                         None if number == 0 else 1)
         times["solve"] = time.perf_counter() - t
         t = time.perf_counter()
         est = estimator.estimate(solution.u, solution.fields, **estimator_options(problem))

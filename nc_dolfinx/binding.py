@@ -26,7 +26,10 @@ from .schema import ROLES
 
 @dataclass
 class Fields:
-    """A problem's data on one mesh (rebuilt after each refinement)."""
+    """A problem's data on one mesh, as UFL coefficients of the forms of (7) (rebuilt after each
+    refinement): λ, μ of Hooke's law (Constants, or DG0 fields with material regions), the body force
+    f of (1), the tractions g of (3) per Neumann group, c_n, m_n and the gap g_0 of the law (4), the exact
+    displacement if given, the group ids of each role and the boundary measure ``ds``."""
     domain: meshes.Domain
     lmbda: object
     mu: object
@@ -43,6 +46,7 @@ class Fields:
 
     @property
     def dim(self):
+        """The geometric dimension of the mesh (2: plane strain, 3)."""
         return self.domain.mesh.geometry.dim
 
     def ds_of(self, role):
@@ -50,11 +54,12 @@ class Fields:
         return self.ds(self.ids[role])  # a tuple of ids: the union of the groups
 
     def sigma(self, u):
-        """σ(u) with this problem's material."""
+        """σ(u) = 2μ ε(u) + λ tr ε(u) I with this problem's material (§2)."""
         return physics.sigma(u, self.lmbda, self.mu)
 
     def boundary_conditions(self, V):
-        """u = 0 on Γ_D; on each symmetry plane the normal component of u is 0."""
+        """Dirichlet conditions on the vector P1 space ``V``: u = 0 on Γ_D (2); on each symmetry plane
+        the normal component of u is 0."""
         tags, fdim = self.domain.facet_tags, self.domain.mesh.topology.dim - 1
         clamped = tags.indices[np.isin(tags.values, self.ids["dirichlet"])]
         bcs = [fem.dirichletbc(np.zeros(self.dim, dtype=PETSc.ScalarType),
@@ -67,8 +72,9 @@ class Fields:
 
 
 def bind(problem, domain):
-    """The problem's UFL fields on ``domain``; checks groups, roles, Γ_D, Γ_C, symmetry planes, the
-    dimension of every vector, m_n in 3D, and the signs of c_n and g_0 on Γ_C."""
+    """The problem's data on ``domain`` as :class:`Fields`: the coefficients of (7) and the measures of
+    Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, the dimension of every
+    vector, m_n in 3D, and the signs of c_n and g_0 on Γ_C; raises :class:`InputError` for each."""
     msh, params, values = domain.mesh, problem.parameters, problem.values
     dim = msh.geometry.dim
     check_vector_sizes(values, dim)
@@ -227,13 +233,17 @@ def _check_on_contact(fields, name, expr):
 
 
 def build_domain(problem, comm):
-    """The level-0 mesh of the problem's [mesh]: a built-in rectangle or box, or a gmsh file."""
+    """The level-0 :class:`Domain` of the problem's [mesh] on the communicator ``comm``
+    (e.g. ``MPI.COMM_WORLD``): a built-in rectangle or box, or a gmsh file."""
     from pathlib import Path
     spec = problem.values["mesh"]
     if spec["rectangle"]:
         return meshes.rectangle(comm, spec["rectangle"], spec["cells"], spec["diagonal"])
     if spec["box"]:
         return meshes.box(comm, spec["box"], spec["cells"])
+    if not spec["file"]:
+        raise InputError("the problem names no mesh (mesh.file, mesh.rectangle or mesh.box): build a Domain "
+                         "(nc.from_gmsh_model, nc.from_dolfinx, …) and pass it to solve/adapt")
     path = Path(spec["file"])
     if not path.is_file():
         raise InputError(f"mesh file '{path}' not found")

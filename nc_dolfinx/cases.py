@@ -5,21 +5,22 @@ from .errors import InputError
 from .problem import read_toml
 
 CASES_DIR = Path(__file__).parent / "cases"
-DEFAULT_CASE = "block"
 
 
-def available():
-    """{name: title} of the built-in cases."""
+def case_titles():
+    """The built-in cases as {name: title}, the title being the first line of each problem file."""
     return {p.stem: read_toml(p).get("title", p.stem) for p in sorted(CASES_DIR.glob("*.toml"))}
 
 
 def case_names():
-    """The names of the built-in cases."""
+    """The names of the built-in cases (problem files shipped in ``nc_dolfinx/cases/``), for
+    :func:`load_problem`."""
     return sorted(p.stem for p in CASES_DIR.glob("*.toml"))
 
 
 def case_path(name):
-    """The problem file of a built-in case."""
+    """The path of a built-in case's problem file (a TOML file to read or copy); :class:`InputError`
+    for an unknown name."""
     return resolve(name) if (CASES_DIR / f"{name}.toml").is_file() else _unknown(name)
 
 

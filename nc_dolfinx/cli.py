@@ -16,6 +16,8 @@ import time
 
 from mpi4py import MPI
 
+import nc_dolfinx as nc
+
 from . import interrupt
 from .errors import InputError
 
@@ -47,7 +49,8 @@ def parser():
     p.add_argument("--rtol", type=float, default=None, help="stop once eta <= RTOL * eta(level 0)")
     p.add_argument("--preset", choices=("auto", "direct", "iterative"), default=None,
                    help="linear solver preset for CG on the Jacobian: preconditioned by a MUMPS Cholesky "
-                        "factorisation (direct) or GAMG (iterative) of the bulk stiffness K")
+                        "factorisation (direct) or GAMG (iterative); auto (default) picks one from the "
+                        "mesh's dimension and size")
     p.add_argument("--load-steps", type=int, default=None, help="increments of the loads on level 0")
     p.add_argument("--compare-uniform", action="store_true",
                    help="with --refine adaptive: also run uniform refinement (same level and dof limits) and "
@@ -116,8 +119,7 @@ def _main(argv, comm):
     try:
         args, rest = parser().parse_known_args(argv)
         if args.list:
-            from . import cases
-            for name, title in cases.available().items():
+            for name, title in nc.case_titles().items():
                 say(f"{name:14s} {title}")
             return 0
         ours = [a.option_strings[-1].lstrip('-') for a in parser()._actions if a.option_strings]
@@ -176,26 +178,20 @@ def _internal_error(err, args, comm):
     comm.Abort(EXIT_INTERNAL)
 
 
-def _default_case():
-    from .cases import DEFAULT_CASE
-    return DEFAULT_CASE
-
-
 def prepare_runs(args, cli_options, comm, say):
     """Every case's problem, settings and output folder, checked before the first one runs."""
     from pathlib import Path
 
-    from . import adaptive, cases, problem as problem_module, schema
     from .run import CaseRun
-    names = args.cases or [_default_case()]
+    names = args.cases or [nc.DEFAULT_CASE]
     runs, outs = [], set()
     for case in names:
-        problem = problem_module.load_problem(cases.resolve(case), args.set)
-        given = (("solver.preset", args.preset, "--preset"), ("solver.load_steps", args.load_steps, "--load-steps"))
-        changes = {key: schema.convert(key, value, option) for key, value, option in given if value is not None}
+        problem = nc.load_problem(case, args.set)
+        changes = {"solver.preset": args.preset, "solver.load_steps": args.load_steps}  # --preset, --load-steps
+        changes = {key: value for key, value in changes.items() if value is not None}
         if changes:
             problem = problem.replace(changes)
-        settings = adaptive.AdaptSettings.from_problem(
+        settings = nc.AdaptSettings.from_problem(
             problem, refine=args.refine, levels=args.levels, theta=args.theta, marking=args.marking,
             max_dofs=args.max_dofs, tol=args.tol, rtol=args.rtol)
         if args.compare_uniform and settings.refine != "adaptive":
@@ -224,8 +220,7 @@ def run_case(run, args, comm, say):
     finally:
         if handler:
             logger.removeHandler(handler)
-    from . import reference
-    for quantity, computed, ref in reference.compare(problem, result.history[-1]):
+    for quantity, computed, ref in nc.compare_with_reference(problem, result.history[-1]):
         say(f"  {quantity}: computed {computed:.5g}, reference {ref:.5g} "
             f"({100 * (computed - ref) / ref:+.2f} %)")
     say(f"  stopped: {run.reason}")

@@ -27,6 +27,16 @@ _NEAREST = 8  # simplices checked exactly per point before the exhaustive fallba
 
 @dataclass
 class Domain:
+    """A mesh with named boundary groups and material regions: where the problem's Γ_D, Γ_N, Γ_C (paper
+    §2) and symmetry planes are chosen, by group name, and where each material applies.
+
+    ``mesh``: the DOLFINx mesh (P1 triangles or tetrahedra, ``GhostMode.shared_facet``);
+    ``facet_tags``: the owned exterior facets tagged with their group id (``UNTAGGED`` = 0 in none);
+    ``region``: a DG0 function of the cells' region ids; ``facet_groups`` / ``cell_groups``: name → id;
+    ``boundary``: the level-0 boundary simplices and their ids, which re-tag every refined mesh.
+    Made by :func:`rectangle`, :func:`box`, :func:`from_gmsh`, :func:`from_gmsh_model`,
+    :func:`from_dolfinx` or :func:`build_domain`; :func:`refine` returns the next one.
+    """
     mesh: dmesh.Mesh
     facet_tags: object  # dolfinx MeshTags on the owned exterior facets
     region: fem.Function
@@ -36,16 +46,20 @@ class Domain:
 
     @property
     def comm(self):
+        """The mesh's MPI communicator."""
         return self.mesh.comm
 
     @property
     def tdim(self):
+        """The topological dimension: 2 (triangles) or 3 (tetrahedra)."""
         return self.mesh.topology.dim
 
     def num_cells(self):
+        """The global number of cells."""
         return self.mesh.topology.index_map(self.tdim).size_global
 
     def num_vertices(self):
+        """The global number of vertices (a P1 vector field has tdim times as many dofs)."""
         return self.mesh.topology.index_map(0).size_global
 
 

@@ -2,4 +2,5 @@
 
 
 class InputError(Exception):
-    """Bad input or a failed solve: the CLI prints ``str(err)`` as one line and exits non-zero."""
+    """Bad input or a failed solve, raised on every rank together: its message names the problem in one
+    line (the command line prints it as ``nc_dolfinx: error: …`` and exits with status 1)."""

@@ -64,7 +64,11 @@ CONTACT_DEGREE_SPLIT = 16  # Γ_C on each piece of a split face (3D): 55 points
 
 @dataclass
 class Estimate:
-    """Cellwise indicators (DG0 functions named as in NAMES) and their global values."""
+    """What :func:`estimate` returns: the indicators of Definition 5 and the oscillation ζ (§4.1).
+
+    ``fields``: DG0 functions ``eta_1`` … ``eta_4``, ``eta`` and ``zeta`` holding η_iK, η_K and ζ_K
+    on every cell; ``totals``: their global values η_i = (Σ_K η_iK²)^{1/2}, η and ζ (the same on every
+    rank); ``squares``: η_K² on the owned cells (what :func:`mark` reads); ``time``: seconds spent."""
     fields: dict
     totals: dict
     time: float = 0.0
@@ -72,11 +76,15 @@ class Estimate:
 
     @property
     def comm(self):
+        """The communicator of the mesh the indicators live on."""
         return self.fields["eta"].function_space.mesh.comm
 
 
 def assemble_cellwise(form, space):
-    """Owned-cell values (n_owned, bs) of a linear ``form`` whose test function is in the DG0 ``space``."""
+    """Owned-cell values (n_owned, bs) of a linear ``form`` whose test function is in the DG0 ``space``:
+    assembled against a DG0 test function, a form's integrand summed cell by cell — how the local
+    indicators of Definition 5 are computed (a cell's value includes what its facets' integrals give it;
+    ghost contributions are added to the owners)."""
     vec = fem_petsc.assemble_vector(fem.form(form))
     vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     n_owned = space.dofmap.index_map.size_local * space.dofmap.index_map_bs

@@ -89,7 +89,8 @@ def owned_values_with_ghosts(Q, owned_values, name="o"):
 
 
 def patch_sum(o, Q):
-    """Σ_{K' ⊂ ω_K} o_K' for every owned K (ω_K: the cells sharing a vertex with K), from owned-cell ``o``.
+    """Σ_{K' ⊂ ω_K} o_K' for every owned K (ω_K: the cells sharing a vertex with K, the patch of §3), from
+    owned-cell ``o`` — the sum over the patch in ζ_K of Definition 5.
 
     Inclusion–exclusion over the sub-simplices s of K (a cell K' ∈ ω_K meets K in one sub-simplex, whose
     own sub-simplices count K' with alternating signs summing to one):

@@ -38,6 +38,8 @@ def contact_pressure(u, fields, n=None):
 
 
 def contact_measure(fields, degree=CONTACT_QUADRATURE_DEGREE):
+    """The measure of Γ_C, where j_n of (7) is integrated, with a Gauss rule of ``degree`` (high: the
+    integrands hold (u_n − g_0)_+, whose kink may lie inside a facet)."""
     return fields.ds_of("contact")(metadata={"quadrature_degree": degree})
 
 
@@ -66,6 +68,14 @@ def normal_compliance_forms(u, fields):
     m = fields.m_n
     contact_energy = fields.c_n / (m + 1) * penetration(u, fields, n) ** (m + 1) * dC
     return NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
+
+
+def energy(u, fields):
+    """Π(u) = ½ a(u, u) − L(u) + ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1}: the convex, C¹ energy whose
+    gradient is the residual of (7) (the solver's line search decreases it)."""
+    pieces = normal_compliance_forms(u, fields)
+    return elastic_energy(u, fields) - ufl.replace(pieces.L, {ufl.TestFunction(u.function_space): u}) \
+        + pieces.contact_energy
 
 
 def elastic_energy(u, fields):

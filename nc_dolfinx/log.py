@@ -21,7 +21,8 @@ _FILTER = _QuietBuildTools()
 
 
 def quiet_compilers(quiet=True):
-    """Drop (``True``, the default on import) or show (``False``) the FFCx/setuptools INFO lines."""
+    """Drop (``True``, the default on import) or show (``False``) the INFO lines that FFCx, UFL and
+    setuptools log on the root logger while compiling forms; warnings always pass."""
     root = logging.getLogger()
     if quiet:
         if _FILTER not in root.filters:

@@ -29,11 +29,13 @@ def doerfler_threshold(eta_squared, theta):
 
 
 def mark(indicators, theta=0.5, strategy="doerfler", comm=None):
-    """Local indices of the owned cells to refine, from an :class:`~nc_dolfinx.Estimate` (or an array of
-    the owned cells' η_K² with its communicator ``comm``).
+    """MARK: the local indices of the owned cells to refine, from an :class:`~nc_dolfinx.Estimate` (the
+    η_K of Definition 5), or from an array of the owned cells' η_K² with its communicator ``comm``.
 
     doerfler: a minimal set with Σ_marked η_K² ≥ θ η² (Dörfler's bulk criterion);
     maximum:  the cells with η_K ≥ θ max η_K.
+
+    Decided on the global set of indicators: the marked cells do not depend on the number of ranks.
     """
     if hasattr(indicators, "squares"):
         indicators, comm = indicators.squares, indicators.comm

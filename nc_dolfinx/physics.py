@@ -9,7 +9,9 @@ import ufl
 
 
 def lame(E, nu):
-    """Lamé coefficients (λ, μ) from Young's modulus and Poisson's ratio (plane strain and 3D alike)."""
+    """Lamé coefficients (λ, μ) of Hooke's law (§2) from Young's modulus E and Poisson's ratio ν:
+    λ = Eν / ((1 + ν)(1 − 2ν)), μ = E / (2(1 + ν)) (plane strain and 3D alike). Numbers, Constants or
+    UFL expressions."""
     return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
 
 
@@ -19,7 +21,8 @@ def strain(u):
 
 
 def sigma(u, lmbda, mu):
-    """Hooke's law σ(u) = 2μ ε(u) + λ tr ε(u) I, in the mesh's dimension."""
+    """Hooke's law σ(u) = 2μ ε(u) + λ tr ε(u) I (paper §2, isotropic a_ijhk) as a UFL expression, in the
+    dimension of ``u`` (2D: plane strain)."""
     eps = strain(u)
     return 2 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(len(u))
 
@@ -41,7 +44,8 @@ def von_mises(u, lmbda, mu):
 
 
 def normal_stress(s, n):
-    """σ_n = σν·ν."""
+    """σ_n = σν·ν, the normal stress of the law (4), for a stress ``s`` and a unit normal ``n``
+    (e.g. ``ufl.FacetNormal(mesh)``)."""
     return ufl.dot(s * n, n)
 
 

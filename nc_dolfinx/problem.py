@@ -16,9 +16,20 @@ from .errors import InputError
 
 @dataclass(frozen=True)
 class Problem:
-    """A validated problem. ``values`` holds every schema key (defaults filled in, numbers as floats,
-    expressions as written); ``given`` the dotted keys the problem set explicitly; ``raw`` the table as
-    written (after overrides), from which :meth:`replace` revalidates."""
+    """A validated normal compliance problem (paper §2): the body's material (Hooke's law), the loads f
+    and g of (1) and (3), the clamped part Γ_D of (2), and c_n, m_n and the gap g_0 of the law (4) on Γ_C,
+    with the adaptive loop's and the solver's settings. It holds no mesh: bind it to one with
+    :func:`bind` (or let :func:`solve` / :func:`adapt` do it).
+
+    ``values`` holds every schema key (defaults filled in, numbers as floats, expressions as written);
+    ``given`` the dotted keys the problem set explicitly; ``raw`` the table as written (after overrides),
+    from which :meth:`replace` revalidates. Every number of a problem reaches the forms as a
+    ``fem.Constant`` (inside an expression of x, y, z too), so problems that differ only in numbers
+    share their compiled forms.
+
+    >>> problem = load_problem("block")                  # or Problem.from_dict({...}, "mine")
+    >>> stiffer = problem.replace({"contact.c_n": 5e4})   # validated again; compiles nothing new
+    """
     name: str
     values: dict = field(repr=False)
     given: frozenset = field(repr=False)
@@ -63,10 +74,12 @@ class Problem:
 
     @property
     def title(self):
+        """The problem's ``title``, or its name when it has none."""
         return self.values.get("title") or self.name
 
     @property
     def parameters(self):
+        """The ``[parameters]`` table: named numbers usable in every expression."""
         return self.values["parameters"]
 
     @property
@@ -87,13 +100,12 @@ def _check_consistency(values, given):
     """Rules that join several keys."""
     mesh = values["mesh"]
     kinds = [k for k in ("file", "rectangle", "box") if mesh[k] is not None]
-    if len(kinds) != 1:
-        raise InputError("[mesh] needs exactly one of 'file', 'rectangle' or 'box'"
-                         + (f", got {', '.join(kinds)}" if kinds else ""))
-    kind = kinds[0]
-    if kind == "file" and "mesh.cells" in given:
-        raise InputError("mesh.cells is for mesh.rectangle or mesh.box, not for a mesh file")
-    if kind != "file":
+    if len(kinds) > 1:
+        raise InputError(f"[mesh] takes one of 'file', 'rectangle' or 'box', got {', '.join(kinds)}")
+    kind = kinds[0] if kinds else None  # None: the mesh is given as a Domain (API)
+    if kind not in ("rectangle", "box") and "mesh.cells" in given:
+        raise InputError("mesh.cells is for mesh.rectangle or mesh.box")
+    if kind in ("rectangle", "box"):
         dim = 2 if kind == "rectangle" else 3
         if len(mesh[kind][0]) != dim:
             raise InputError(f"mesh.{kind} must have {dim} coordinates per corner, got {mesh[kind]}")
@@ -212,7 +224,9 @@ def read_toml(path):
 
 
 def load_problem(source, overrides=(), name=None):
-    """A Problem from a built-in case name or a problem file, with ``--set``-style overrides.
+    """A :class:`Problem` from a built-in case name (:func:`case_names`) or a TOML problem file, with
+    ``--set``-style overrides ``"section.key=value"`` (TOML syntax for the value). Raises
+    :class:`InputError` naming the key for a bad or unknown entry.
 
     >>> problem = load_problem("block", ["contact.m_n=2"])
     """

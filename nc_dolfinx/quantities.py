@@ -15,11 +15,17 @@ ERROR_DEGREE = 8
 
 
 def integrate(expr, comm):
+    """The integral of a UFL form of rank 0 (``expr``, e.g. ``u[0] * ufl.dx``) summed over the ranks of
+    ``comm`` (``fem.assemble_scalar`` alone gives the rank's part)."""
     return comm.allreduce(fem.assemble_scalar(fem.form(expr)), MPI.SUM)
 
 
 def solution_quantities(u, fields):
-    """Elastic energy ½a(u_h, u_h), the normal contact resultant ∫_Γ_C p and the force on the body."""
+    """Global quantities of a solution ``u`` of (7), as a dict: ``elastic_energy`` ½a(u_h, u_h),
+    ``contact_resultant`` ∫_Γ_C p with p = c_n (u_hn − g_0)_+^{m_n} = −σ_n the pressure of the law (4),
+    ``contact_force`` −∫_Γ_C p ν (the vector the foundation exerts on the body), ``contact_length`` (2D)
+    or ``contact_area`` (3D) the measure of {p > 0}, and ``max_contact_pressure`` / ``max_penetration``,
+    the largest nodal values of p and (u_hn − g_0)_+ (lumped projections, :func:`contact_projection`)."""
     comm = fields.domain.comm
     n = ufl.FacetNormal(fields.domain.mesh)
     p = forms.contact_pressure(u, fields, n)
@@ -43,7 +49,9 @@ def solution_quantities(u, fields):
 
 
 def contact_projection(expr, fields, name):
-    """Lumped L² projection of a Γ_C quantity onto P1: q_i = ∫_Γ_C q φ_i / ∫_Γ_C φ_i, zero off Γ_C."""
+    """Lumped L² projection of a UFL quantity ``expr`` on Γ_C (the contact boundary of §2, e.g. the
+    pressure of the law (4)) onto P1: q_i = ∫_Γ_C q φ_i / ∫_Γ_C φ_i, zero off Γ_C. Returns a scalar P1
+    ``fem.Function`` called ``name``."""
     V = fem.FunctionSpace(fields.domain.mesh, ("CG", 1))
     v = ufl.TestFunction(V)
     dC = forms.contact_measure(fields)
@@ -61,7 +69,9 @@ def contact_projection(expr, fields, name):
 
 
 def errors(u, fields):
-    """‖u − u_h‖ in L² and H¹ and the contact-augmented error ẽ of Remark 9."""
+    """Errors of ``u`` against the problem's exact displacement ([exact] u), as a dict: ``l2_error``
+    ‖u − u_h‖_0, ``h1_error`` ‖u − u_h‖_1 (the full H¹ norm of Theorem 6) and ``augmented_error`` ẽ of
+    Remark 9, which adds (Σ_E h_E ‖σ_n(u − u_h)‖_E²)^{1/2} over Γ_C. Empty without an exact solution."""
     if fields.u_exact is None:
         return {}
     comm = fields.domain.comm

@@ -22,8 +22,9 @@ def hertz_sphere_contact(force, radius, E, nu):
     return {"radius": a, "peak_pressure": 3 * force / (2 * math.pi * a ** 2) if a > 0 else 0.0}
 
 
-def compare(problem, row):
-    """Rows of (quantity, computed, reference) for the problem's [reference] table."""
+def compare_with_reference(problem, row):
+    """Rows of (quantity, computed, reference) for the problem's [reference] table: Hertz's contact size and
+    peak pressure for the computed contact resultant (divided by ``reference.model_fraction``)."""
     ref, material = problem.values["reference"], problem.values["material"]
     fraction = ref["model_fraction"]
     force = row["contact_resultant"] / fraction

@@ -28,7 +28,10 @@ from .domain import Domain, region_function, tag_exterior_facets
 
 
 def refine(domain, cells=None):
-    """Refine the owned ``cells`` (local indices; ``None``: every cell) and return the new Domain."""
+    """REFINE: Plaza refinement of the owned ``cells`` (local indices, e.g. from :func:`mark`; ``None``:
+    every cell, uniform refinement) and the edges needed for conformity. Returns the new
+    :class:`Domain`, its boundary groups re-tagged from the level-0 boundary and its material regions
+    carried over; cells stay on their rank."""
     msh, tdim = domain.mesh, domain.mesh.topology.dim
     msh.topology.create_entities(1)  # Plaza needs the edges, also for uniform refinement of tetrahedra
     if cells is None:
@@ -64,7 +67,8 @@ def evaluate(function, points):
 
 
 def transfer(function, space):
-    """Interpolate a P1 ``function`` of the parent mesh into ``space`` on the child mesh.
+    """Interpolate a P1 ``function`` of the parent mesh into ``space`` on the child mesh: exact, since a
+    child vertex is a parent vertex or an edge midpoint (nested iteration's initial guess).
 
     Only the vertices of *owned* child cells are sure to lie in local parent cells (their parents are
     owned here); a dof's owner may hold it through ghost cells only. So every rank computes the dofs of its

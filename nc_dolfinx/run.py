@@ -13,8 +13,9 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from . import (__version__, adaptive, columns, interrupt, output, petsc_options, postprocess, provenance,
-               reference, vtu)
+import nc_dolfinx as nc
+
+from . import columns, interrupt, output, petsc_options, postprocess, provenance, vtu
 from .errors import InputError
 
 DOUBTFUL_FRACTION = 0.1  # penetration or |u| beyond this part of the body's diameter: warn
@@ -44,7 +45,7 @@ class CaseRun:
         """Solve, estimate and refine level by level; returns the adaptive Result."""
         self.folder.open()
         try:
-            result = adaptive.adapt(self.problem, self.settings, comm=self.comm,
+            result = nc.adapt(self.problem, self.settings, comm=self.comm,
                                     petsc_options=self.cli_options, on_level=self.on_level)
             self.stop_reason, self.reason = result.stop_reason, self.stop_text(result)
             histories = {self.settings.refine: result.history}
@@ -120,7 +121,7 @@ class CaseRun:
                                                    history[-1]["dofs"]))
         if not self.args.quiet:
             self.say("  uniform refinement for comparison:")
-        rows = adaptive.adapt(self.problem, uniform, comm=self.comm, petsc_options=self.cli_options).history
+        rows = nc.adapt(self.problem, uniform, comm=self.comm, petsc_options=self.cli_options).history
         output.on_rank0(self.comm, lambda: (
             self.folder.replace("history_uniform.json", output.json_writer(rows)),
             self.folder.replace("history_uniform.csv", output.text_writer(output.csv_text(rows)))), self.out)
@@ -148,7 +149,7 @@ class CaseRun:
     def summary(self, status):
         last = self.history[-1] if self.history else {}
         data = {
-            "program": output.PROGRAM, "version": __version__, "status": status,
+            "program": output.PROGRAM, "version": nc.__version__, "status": status,
             "reason": self.reason, "stop_reason": self.stop_reason if status == "completed" else None,
             "stopped_at_level": {"completed": last.get("level"), "running": None}.get(status, len(self.history)),
             "problem": self.problem.name, "title": self.problem.title, "source": str(self.problem.source),
@@ -159,7 +160,7 @@ class CaseRun:
         }
         if status == "completed":
             data["reference"] = [{"quantity": q, "computed": c, "reference": r}
-                                 for q, c, r in reference.compare(self.problem, last)]
+                                 for q, c, r in nc.compare_with_reference(self.problem, last)]
         data.update({
             "settings": dataclasses.asdict(self.settings), "resolved": self.problem.to_dict(),
             "petsc_options": self.petsc, "versions": self.versions,

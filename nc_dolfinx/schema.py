@@ -60,7 +60,8 @@ KEYS = [
         "every expression and number of the file"),
     # [mesh]
     Key("mesh.file", "string", "gmsh `.msh` file (linear triangles in 2D, tetrahedra in 3D) with physical "
-        "groups, relative to the problem file; one of `file`, `rectangle`, `box`"),
+        "groups, relative to the problem file; one of `file`, `rectangle`, `box` (or none, when the Python API is given "
+        "the mesh as a Domain)"),
     Key("mesh.rectangle", "corners", "built-in 2D mesh `[[x0, y0], [x1, y1]]` with the groups "
         "`left`/`right` (x = x0/x1), `bottom`/`top` (y = y0/y1)"),
     Key("mesh.box", "corners", "built-in 3D tetrahedral mesh `[[x0, y0, z0], [x1, y1, z1]]` with the "

@@ -1,13 +1,30 @@
 """Nonlinear solver for (7): PETSc SNES configured through an options prefix.
 
+(7) minimises the convex, C¹ energy (``forms.energy``)
+    Π(u) = ½a(u,u) − L(u) + ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1},   F = ∇Π,  J = ∇²Π
+(generalised for m_n < 2). SNES gets Π as its objective; the line search (a precheck) minimises Π along
+each Newton step, checked against the objective, so no step increases Π. Every CG iterate started from
+zero is a descent direction of Π (∇Π·d = −dᵀJd < 0), so inexact (Eisenstat–Walker) steps and Krylov
+solves stopped at their iteration limit are safe steps too. A failed SNES solve is retried with a
+refreshed, then a stronger preconditioner, then by load continuation, before it ends the run.
+
 Options are layered (later wins): the preset's defaults, the problem file's ``[solver] petsc_options``,
 then ``-snes_*``/``-ksp_*``/``-pc_*`` flags from the command line. All are written into the PETSc
 options database under the prefix ``nc_`` and read by ``setFromOptions``, so any PETSc option works,
-as in dolfiny.
+as in dolfiny. The preset ``auto`` (the default) is resolved when the mesh is known (see ``choose_preset``);
+``preset`` itself is an option of the same layers (``-preset iterative`` on the command line).
 """
+import math
 import time
 from dataclasses import dataclass
 
+import numpy as np
+import ufl
+from ufl.algorithms.apply_algebra_lowering import apply_algebra_lowering
+from ufl.algorithms.apply_derivatives import apply_derivatives
+from ufl.algorithms.map_integrands import map_integrand_dags
+from ufl.corealg.multifunction import MultiFunction
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
@@ -20,38 +37,113 @@ PREFIX = "nc_"
 
 NEWTON_DEFAULTS = {
     "snes_type": "newtonls",
-    "snes_linesearch_type": "bt",
+    # The line search is the precheck's minimisation of Π along the step (see _line_minimisation); SNES
+    # then takes the step it chose. PETSc's bt on the objective cannot end a solve at these tolerances: it
+    # compares two values of Π, whose difference near the solution (~‖F‖²) lies below Π's round-off
+    # (~1e-16 |Π|): it failed at ‖F‖ ≈ 1e-11 ‖F_0‖ (measured). Slopes F·y stay accurate.
+    "snes_linesearch_type": "basic",
     "snes_rtol": 1e-10,
     "snes_stol": 0.0,
     "snes_max_it": 50,
+    # PETSc stops when ‖F‖ > 1e4 ‖F_0‖; on a stiff foundation ‖F‖ legitimately grows by c_n times the
+    # first step's penetration while Π decreases (the iterative preset's DIVERGED_DTOL of issue 13).
+    "snes_divergence_tolerance": -1.0,
+    # A Krylov solve that stops at its iteration limit still returns a descent direction of Π: take the
+    # step (the line search guards it) and refresh the preconditioner, instead of ending the solve.
+    "snes_max_linear_solve_fail": 1000,
+}
+# The solver's own choices, options of the same layers (``-pc_refresh_misfit 1``, ``-line_minimisation
+# false`` on the command line, ``[solver] petsc_options``); not passed to PETSc.
+OWN_DEFAULTS = {
+    "line_minimisation": True,     # the line search of _line_minimisation (false: SNES's own, on Π for bt)
+    "pc_refresh_misfit": 0.3,      # MISFIT_MAX below
+    "pc_refresh_growth": 3.0,      # KRYLOV_GROWTH below
+    "ew_rtol0_unsupported": 0.3,   # see _first_krylov_tolerance
+    "fallbacks": True,             # false: a failed SNES solve ends the run at once
 }
 # Unless an snes_atol is given, ‖F‖ <= ATOL_OF_LOAD ‖L‖ also counts as converged: with a good initial
 # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
 ATOL_OF_LOAD = 1e-10
-# Both presets run CG on the Jacobian J = K + j_n'(u); the preconditioner is built once per mesh from K or
-# from J(u_0) (see NonlinearSolver): a Cholesky factorisation (MUMPS, AMF ordering: the fastest measured
-# here) or GAMG with the rigid-body near-nullspace.
+
+# Smoothed-aggregation AMG for elasticity, set up as in DOLFINx's elasticity demo: the rigid-body
+# near-nullspace (on the matrices, see NonlinearSolver), the SPD flag, Chebyshev/Jacobi smoothers with
+# CG-based eigenvalue estimates (CG is the right estimator for an SPD operator and needs fewer steps than
+# GMRES), and the interpolation kept when the preconditioning matrix is refreshed within a level (only
+# the Galerkin products and smoothers are redone).
+AMG = {"pc_type": "gamg", "pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1,
+       "mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi",
+       "mg_levels_esteig_ksp_type": "cg", "mg_levels_ksp_chebyshev_esteig_steps": 10,
+       "pc_gamg_reuse_interpolation": True,
+       # GAMG would hand the smoothers the eigenvalue estimates of its prolongator smoothing, which a
+       # refresh with reused interpolation does not redo: after K -> K + 1e4 M_Γ CG then ran 10000
+       # iterations (or stopped on an indefinite PC); with Chebyshev's own CG estimates 29 (fresh set-up:
+       # 22, at 3x the set-up time).
+       "pc_gamg_use_sa_esteig": False}
+# Both presets run CG on the Jacobian J = K + j_n'(u) (SPD); the preconditioner is built from J at the
+# initial guess and refreshed when it no longer fits (see NonlinearSolver).
 PRESETS = {
+    # a Cholesky factorisation (MUMPS, AMF ordering: the fastest measured here); exact Newton steps
     "direct": {"ksp_type": "cg", "ksp_rtol": 1e-10, "pc_type": "cholesky",
                "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_7": 2},
-    # Eisenstat–Walker inexact Newton (with the basic line search: backtracking fails on inexact steps)
-    # halved the nonlinear solve time with GAMG in benchmarks/ (version 3 measured best).
-    "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, "pc_type": "gamg",
-                  "pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "mg_levels_ksp_type": "chebyshev",
-                  "mg_levels_pc_type": "jacobi", "snes_ksp_ew": True, "snes_ksp_ew_version": 3,
-                  "snes_linesearch_type": "basic"},
+    # Eisenstat–Walker inexact Newton (version 3: its safeguard stops the last system at the SNES target)
+    # halved the nonlinear solve time with GAMG in benchmarks/.
+    # The first Krylov solve to 3e-2 (rtol0; PETSc's default 0.3): on a cold start the first step is
+    # nearly the answer when the Jacobian already sees the foundation (m_n = 1, see closed_jacobian),
+    # and a loose one cost 2-4 more Newton steps on the stiff members of benchmarks/family.py.
+    "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, **AMG, "snes_ksp_ew": True, "snes_ksp_ew_version": 3,
+                  "snes_ksp_ew_rtol0": 0.03},
 }
-# "auto": the PC built from K is kept while a Newton system needs at most this many Krylov iterations.
-AUTO_SWITCH_ITERATIONS = 30
+PRESET_NAMES = ("auto", *PRESETS)
 PRECONDITIONER_MATRICES = ("auto", "bulk", "jacobian")
 
 
-def solver_options(preset, problem_options=None, cli_options=None):
-    options = dict(NEWTON_DEFAULTS)
-    options.update(PRESETS[preset])
+def solver_options(preset="auto", problem_options=None, cli_options=None):
+    """The user's option layers over the preset's name (``preset`` may itself be overridden by a layer);
+    the preset's options go under them in ``NonlinearSolver``, once the problem is known."""
+    options = {"preset": preset}
     options.update(problem_options or {})
     options.update(cli_options or {})
     return options
+
+
+def choose_preset(dim, dofs, warm_start):
+    """The linear strategy of ``preset = "auto"``, from what is known before solving (measured in
+    benchmarks/README.md, "auto"):
+
+    - 3D: GAMG — a factorisation of the whole stiffness costs far more time and memory there.
+    - 2D, up to COLD_DIRECT_MAX_DOFS: MUMPS Cholesky; both take < 0.05 s there, and exact Newton steps
+      make the Newton counts independent of the partition.
+    - 2D with a warm start (the adaptive loop's nested levels), up to WARM_DIRECT_MAX_DOFS: MUMPS
+      Cholesky of J(u_0), nearly the final Jacobian: 1–4 CG iterations per level. GAMG costs 3–4x more to
+      set up on refined meshes than on generated ones of the same size (the square at 1.3e5: 0.8 s
+      against 0.22 s), and the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct
+      (corner: within 10 %).
+    - otherwise (2D cold starts, large meshes): CG + GAMG, 1.4–2.8x faster than the factorisation on a
+      cold start from 1e4 dofs on (block, corner, the family square).
+    The number of ranks did not change these choices in the measurements.
+    """
+    if dim == 2 and (dofs <= COLD_DIRECT_MAX_DOFS or (warm_start and dofs <= WARM_DIRECT_MAX_DOFS)):
+        return "direct"
+    return "iterative"
+
+
+COLD_DIRECT_MAX_DOFS = 10_000
+WARM_DIRECT_MAX_DOFS = 1_000_000
+
+
+def resolve_options(options, dim, dofs, warm_start):
+    """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved."""
+    user = {k.lstrip("-"): v for k, v in options.items()}
+    preset = str(user.pop("preset", "auto"))
+    if preset not in PRESET_NAMES:
+        raise InputError(f"solver preset must be one of {', '.join(PRESET_NAMES)}, got '{preset}'")
+    name = choose_preset(dim, dofs, warm_start) if preset == "auto" else preset
+    return name, {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name], **user}
+
+
+def _flag(value):
+    """An option's truth value: true/false/1/0/yes/no (None: set without a value, i.e. true)."""
+    return value is None or str(value).lower() in ("true", "1", "yes", "on")
 
 
 _OPTIONS_SET = {}  # prefix -> keys set by the last call: PETSc's options database is global
@@ -75,19 +167,21 @@ def set_petsc_options(options, prefix=PREFIX):
 
 
 def rigid_body_modes(V):
-    """Near-nullspace of 2D elasticity: two translations and the infinitesimal rotation."""
+    """Near-nullspace of elasticity on the vector space V: the d translations and d(d−1)/2 infinitesimal
+    rotations (2D: 3 modes, 3D: 6), d = the number of displacement components."""
     index_map = V.dofmap.index_map
     bs = V.dofmap.index_map_bs
-    n_local = index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n_local]
-    vectors = [dolfinx.la.create_petsc_vector(index_map, bs) for _ in range(3)]
+    x = V.tabulate_dof_coordinates()[:index_map.size_local, :bs]
+    rotations = [(i, j) for i in range(bs) for j in range(i + 1, bs)]
+    vectors = [dolfinx.la.create_petsc_vector(index_map, bs) for _ in range(bs + len(rotations))]
     arrays = [v.array.reshape(-1, bs) for v in vectors]
-    for i in range(3):
-        arrays[i][:] = 0.0
-    arrays[0][:, 0] = 1.0
-    arrays[1][:, 1] = 1.0
-    arrays[2][:, 0] = -x[:, 1]
-    arrays[2][:, 1] = x[:, 0]
+    for a in arrays:
+        a[:] = 0.0
+    for k in range(bs):
+        arrays[k][:, k] = 1.0
+    for a, (i, j) in zip(arrays[bs:], rotations):  # rotation in the (x_i, x_j) plane
+        a[:, i] = -x[:, j]
+        a[:, j] = x[:, i]
     dolfinx.la.orthonormalize(vectors)
     return PETSc.NullSpace().create(vectors=vectors, comm=V.mesh.comm)
 
@@ -98,10 +192,52 @@ class SolveStats:
     linear_iterations: int = 0
     converged_reason: str = ""
     time: float = 0.0
-    preconditioner_matrix: str = ""  # the mode at the end ("auto" may have switched to "jacobian")
+    preconditioner_matrix: str = ""  # the configured mode ("auto", "bulk", "jacobian")
+    preset: str = ""                # the preset in force ("auto" resolved)
+    pc_setups: int = 0              # times the preconditioning matrix was (re)built
+    recoveries: str = ""            # fallbacks taken after a failed SNES solve, e.g. "refresh,continuation"
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+
+
+class _LineSearchFailure(Exception):
+    """No step along the Newton direction decreases Π: the SNES solve is abandoned (the fallbacks take
+    over from the last iterate)."""
+
+
+class _ClosedKinks(MultiFunction):
+    """gt(a, b) -> ge(a, b): a conditional's kink taken on its active side."""
+    expr = MultiFunction.reuse_if_untouched
+
+    def gt(self, o, a, b):
+        return ufl.ge(a, b)
+
+
+def closed_jacobian(jacobian):
+    """The Jacobian form with (·)_+ differentiated as active at its kink (u_n − g_0 = 0).
+
+    Both one-sided derivatives at the kink belong to the generalised Jacobian, so semismooth Newton may
+    use either; the two differ only where u_n − g_0 = 0 exactly — in practice on a cold start u_0 = 0
+    without gap, where the usual choice drops the foundation (J(0) = K, m_n = 1) and the first step
+    overshoots by ~c_n times the unsupported body's penetration. The closed choice gives the first
+    Jacobian the foundation's stiffness (and the preconditioner built from it)."""
+    return map_integrand_dags(_ClosedKinks(), apply_derivatives(apply_algebra_lowering(jacobian)))
+
+
+# Preconditioner refresh ("auto"): the preconditioning matrix P is rebuilt from the current Jacobian J
+# when (a) the last Krylov solve failed, or (b) it needed more than KRYLOV_GROWTH times the fewest
+# iterations per decade of residual reduction seen since P was built (and more than KRYLOV_MIN_ITS), or
+# (c) J and P differ by more than MISFIT_MAX along the last Newton step y: |yᵀ(J − P)y| / yᵀPy. (c) is
+# what fires on the family's foundations with m_n > 1 after the first step from J(0) = K (misfit 2.6–44:
+# CG then needed 41–47 iterations in all instead of 55–80). All are global numbers: every rank decides alike.
+KRYLOV_GROWTH = OWN_DEFAULTS["pc_refresh_growth"]
+KRYLOV_MIN_ITS = 20
+MISFIT_MAX = OWN_DEFAULTS["pc_refresh_misfit"]
+# Line minimisation (see _line_minimisation).
+WOLFE_ETA = 0.5
+LINE_TOL = 0.1
+OBJECTIVE_ROUNDOFF = 1e-10
 
 
 class NonlinearSolver:
@@ -114,96 +250,345 @@ class NonlinearSolver:
     """
 
     def __init__(self, forms, u, bcs, options, preconditioner_matrix="auto"):
-        """``preconditioner_matrix`` is the matrix the PC is built from:
-        "bulk": K, set up once per mesh — cheap while the foundation is soft compared with the body;
-        "jacobian": J, set up at every Newton step — robust for a stiff foundation (penalty);
-        "auto": J(u_0) at the initial guess, set up once — K itself on a cold start without initial
-        penetration, the contact stiffness of the transferred solution on a nested level — switching to
-        J at every step for good once a Newton system needs more than AUTO_SWITCH_ITERATIONS Krylov
-        iterations (a count, not a time, so that every rank and every run decides alike).
+        """``options``: from ``solver_options`` (the preset's name and the user's layers).
+        ``preconditioner_matrix`` is the matrix the PC is built from:
+        "auto": J(u_0) at the initial guess (K itself on a cold start, the contact stiffness of the
+        transferred solution on a nested level), rebuilt from the current J when it no longer fits (see
+        KRYLOV_GROWTH) or a Krylov solve failed; "bulk": K, set up once per mesh; "jacobian": J at every
+        Newton step.
+        The objective Π = ½xᵀKx − Lᵀx + ``forms.contact_energy`` (its non-quadratic Γ_C part) drives the
+        line search.
         """
-        self.u, self.bcs = u, bcs
-        a, L = fem.form(forms.a), fem.form(forms.L)
-        self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(forms.j_n_jacobian)
-        self.K = fem_petsc.assemble_matrix(a, bcs=bcs)
+        if preconditioner_matrix not in PRECONDITIONER_MATRICES:
+            raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
+        self.u, self.bcs, self.mode = u, bcs, preconditioner_matrix
+        self.configured_mode = preconditioner_matrix
+        V = u.function_space
+        self.comm = V.mesh.comm
+        self._assemble_constant_parts(forms)
+        dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
+        self.preset, self.options = resolve_options(options, V.dofmap.index_map_bs, dofs, u.vector.norm() > 0)
+        self.user_keys = {key.lstrip("-") for key in options}
+        self.A = self.K.duplicate(copy=True)  # K's sparsity contains Γ_C's
+        self.P = self.K if preconditioner_matrix == "bulk" else self.K.duplicate(copy=True)
+        near_nullspace = rigid_body_modes(V)
+        for matrix in (self.A, self.K) + ((self.P,) if self.P is not self.K else ()):
+            matrix.setNearNullSpace(near_nullspace)
+            matrix.setOption(PETSc.Mat.Option.SPD, True)  # K + j_n'(u): symmetric positive definite
+        self._create_snes()
+        self._reset_preconditioner_state()
+
+    def _assemble_constant_parts(self, forms):
+        """Compile the forms; assemble K (Dirichlet rows: identity) and L (Dirichlet rows: zero) once."""
+        self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(closed_jacobian(forms.j_n_jacobian))
+        self.contact_energy = fem.form(forms.contact_energy)
+        self.K = fem_petsc.assemble_matrix(fem.form(forms.a), bcs=self.bcs)
         self.K.assemble()
-        self.load = fem_petsc.assemble_vector(L)
+        self.load = fem_petsc.assemble_vector(fem.form(forms.L))
         self.load.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        fem_petsc.set_bc(self.load, bcs)
+        fem_petsc.set_bc(self.load, self.bcs)
         self.load_factor = 1.0
         self.contact = fem_petsc.create_vector(self.j_n)
         self.b = fem_petsc.create_vector(self.j_n)
-        if preconditioner_matrix not in PRECONDITIONER_MATRICES:
-            raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
-        self.A = self.K.duplicate(copy=True)  # K's sparsity contains Γ_C's
-        # "auto" copies J(u_0) into P once per solve (P unchanged afterwards: the PC is kept) until it
-        # switches; "bulk" uses K itself.
-        self.P = self.K if preconditioner_matrix == "bulk" else self.K.duplicate(copy=True)
-        near_nullspace = rigid_body_modes(u.function_space)
-        for matrix in (self.A, self.P):
-            matrix.setNearNullSpace(near_nullspace)
-        self.mode = preconditioner_matrix
-        set_petsc_options(options)
-        self.snes = PETSc.SNES().create(u.function_space.mesh.comm)
+        self.work, self.trial = self.K.createVecRight(), self.u.vector.copy()
+
+    def _create_snes(self):
+        set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
+        self.snes = PETSc.SNES().create(self.comm)
         self.snes.setOptionsPrefix(PREFIX)
         self.snes.setFunction(self._residual, self.b)
         self.snes.setJacobian(self._jacobian, self.A, self.P)
+        self.snes.setObjective(self._objective)
+        if _flag(self.options["line_minimisation"]):
+            self.snes.setLineSearchPreCheck(self._line_minimisation)
         self.snes.setFromOptions()
-        self.snes.getKSP().setFromOptions()
-        if "snes_atol" not in options:
-            self.snes.setTolerances(atol=max(ATOL_OF_LOAD * self.load.norm(), 1e-300))
+        ksp = self.snes.getKSP()
+        ksp.setFromOptions()
+        ksp.setConvergenceHistory(reset=True)  # for the Krylov growth (see _krylov_grew)
+        self.atol_given = "snes_atol" in self.options
+        self.rtol, self.atol, _, _ = self.snes.getTolerances()  # SNES gets them as one target (_target)
+
+    # --- evaluations -------------------------------------------------------------------------------
 
     def _update(self, x):
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         x.copy(self.u.vector)
         self.u.vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
-    def _residual(self, snes, x, b):
+    def _assemble_contact(self, x):
+        """j_n(x, ·) into self.contact (Dirichlet rows zero)."""
         self._update(x)
         with self.contact.localForm() as local:
             local.set(0.0)
         fem_petsc.assemble_vector(self.contact, self.j_n)
         self.contact.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        fem_petsc.set_bc(self.contact, self.bcs)  # Dirichlet rows: b = (K x)_D = x_D
-        self.K.mult(x, b)
-        b.axpy(1.0, self.contact)
+        fem_petsc.set_bc(self.contact, self.bcs)
+        return self.contact
+
+    def _residual(self, snes, x, b):
+        contact = self._assemble_contact(x)
+        self.K.mult(x, b)  # Dirichlet rows: b = (K x)_D = x_D
+        b.axpy(1.0, contact)
         b.axpy(-self.load_factor, self.load)
+
+    def _objective(self, snes, x):
+        """Π(x) = ½xᵀKx − λLᵀx + ∫_Γ_C c_n/(m_n+1) (x_n − g_0)_+^{m_n+1}."""
+        self._update(x)
+        self.K.mult(x, self.work)
+        quadratic = 0.5 * x.dot(self.work) - self.load_factor * self.load.dot(x)
+        return quadratic + self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
+
+    def _line_minimisation(self, x, y):
+        """The line search: scale the Newton step y (SNES steps to x − λy) to a minimiser λ ∈ (0, 1] of Π.
+
+        φ(λ) = Π(x − λy) is convex with φ'(λ) = −F(x − λy)·y. The quadratic part of φ' is known from one
+        mat-vec (K symmetric), so each trial costs only an assembly over Γ_C. The full step is kept while
+        φ'(1) <= WOLFE_ETA |φ'(0)| (near the solution φ'(1)/φ'(0) -> 0: Newton's local convergence is
+        untouched); otherwise the root of φ' in (0, 1) is bracketed and found by safeguarded secant steps
+        (Illinois) to |φ'| <= LINE_TOL |φ'(0)|. Last, SNES's objective Π must not increase (checked where
+        the decrease exceeds Π's round-off; halving λ otherwise).
+        """
+        self.K.mult(y, self.work)
+        yKy, xKy = y.dot(self.work), x.dot(self.work)
+        Ly = self.load_factor * self.load.dot(y)
+
+        def slope(lam):
+            x.copy(self.trial)
+            self.trial.axpy(-lam, y)
+            return -(xKy - lam * yKy - Ly + self._assemble_contact(self.trial).dot(y))
+
+        s0, lam = slope(0.0), 1.0
+        s = slope(lam) if s0 < 0.0 else 0.0
+        if s > WOLFE_ETA * abs(s0):
+            lam, s = self._slope_root(slope, s0, s)
+        lam = self._objective_decreases(x, y, lam, 0.5 * lam * (s0 + s))
+        if lam != 1.0:
+            y.scale(lam)
+        return lam != 1.0
+
+    @staticmethod
+    def _slope_root(slope, s0, s1):
+        """λ in (0, 1) with |φ'(λ)| <= LINE_TOL |φ'(0)|, from φ'(0) = s0 < 0 < φ'(1) = s1 (Illinois)."""
+        lo, hi, slo, shi, side = 0.0, 1.0, s0, s1, 0
+        for _ in range(50):
+            lam = (lo * shi - hi * slo) / (shi - slo)
+            s = slope(lam)
+            if abs(s) <= LINE_TOL * abs(s0):
+                break
+            if s < 0.0:
+                lo, slo = lam, s
+                shi, side = (shi / 2 if side == -1 else shi), -1  # halve the stale end's slope
+            else:
+                hi, shi = lam, s
+                slo, side = (slo / 2 if side == 1 else slo), 1
+        return lam, s
+
+    def _objective_decreases(self, x, y, lam, predicted):
+        """λ, halved until Π(x − λy) <= Π(x). Skipped where the predicted change (trapezoid of the slopes,
+        < 0) is below OBJECTIVE_ROUNDOFF times Π's terms (~λ|Lᵀx|): the two values of Π cannot resolve
+        it there, the slopes can. Raises _LineSearchFailure if no λ >= 2^-30 λ decreases Π."""
+        if -OBJECTIVE_ROUNDOFF * abs(self.load_factor * self.load.dot(x)) <= predicted <= 0.0:
+            return lam
+        value = self.snes.computeObjective(x)
+        for _ in range(30):
+            x.copy(self.trial)
+            self.trial.axpy(-lam, y)
+            if self.snes.computeObjective(self.trial) <= value:
+                return lam
+            lam /= 2
+        raise _LineSearchFailure()
+
+    # --- the preconditioner ------------------------------------------------------------------------
+
+    def _reset_preconditioner_state(self):
+        self.best_rate = math.inf   # fewest Krylov iterations per decade since P was built
+        self.force_refresh = True   # P is built from J(u_0) on the first Jacobian
+        self.first_jacobian = True
+        self.pc_setups = 0
+
+    def _last_krylov_solve(self):
+        """(iterations, decades of residual reduction, failed) of the last Krylov solve."""
+        ksp = self.snes.getKSP()
+        history = ksp.getConvergenceHistory()
+        its = ksp.getIterationNumber()
+        decades = math.log10(history[0] / history[-1]) if len(history) > 1 and history[-1] > 0 else 0.0
+        return its, decades, ksp.getConvergedReason() < 0
+
+    def _wants_refresh(self, first, A):
+        if self.mode == "bulk":
+            return False
+        if self.mode == "jacobian" or self.force_refresh:
+            return True
+        if not first and self._krylov_grew():  # (first: the KSP's last solve belongs to an earlier SNES solve)
+            return True
+        return self._misfit(A) > float(self.options["pc_refresh_misfit"])
+
+    def _misfit(self, A):
+        """|yᵀ(J − P)y| / yᵀPy for the last Newton step y: the part of J's energy along the solution's
+        current direction of change that P misses. Smooth modes decide AMG's convergence, and a
+        foundation changes their stiffness by ~c_n'·ℓ/E (ℓ the body's size), far more than the diagonal
+        (~c_n'·h/E) shows."""
+        y = self.snes.getSolutionUpdate()
+        if y is None or y.norm() == 0.0:
+            return 0.0
+        A.mult(y, self.work)
+        yAy = y.dot(self.work)
+        self.P.mult(y, self.work)
+        yPy = y.dot(self.work)
+        misfit = abs(yAy - yPy) / yPy
+        return misfit
+
+    def _krylov_grew(self):
+        """The last Krylov solve failed, or needed more than KRYLOV_GROWTH times the fewest iterations per
+        decade seen since P was built (solves of >= 3 iterations; the first, loose EW solves often need 1)."""
+        its, decades, failed = self._last_krylov_solve()
+        rate = its / max(decades, 0.5)
+        if its >= 3:
+            self.best_rate = min(self.best_rate, rate)
+        growth = float(self.options["pc_refresh_growth"])
+        grew = failed or (its > KRYLOV_MIN_ITS and rate > growth * self.best_rate)
+        return grew
 
     def _jacobian(self, snes, x, A, P):
         self.K.copy(A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         fem_petsc.assemble_matrix(A, self.j_n_jacobian, bcs=self.bcs)
         A.assemble()
-        first = snes.getIterationNumber() == 0
-        if self.mode == "auto" and not first and snes.getKSP().getIterationNumber() > AUTO_SWITCH_ITERATIONS:
-            self.mode = "jacobian"
-        if self.mode == "jacobian" or (self.mode == "auto" and first):
+        if self.first_jacobian:
+            self._first_krylov_tolerance(A)
+        if self._wants_refresh(snes.getIterationNumber() == 0, A):
             # While P is left untouched PETSc sees an unchanged matrix and keeps its PC.
             A.copy(P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.force_refresh, self.best_rate = False, math.inf
+            self.pc_setups += 1
+
+    def _first_krylov_tolerance(self, A):
+        """Eisenstat–Walker's first tolerance (unless given): ew_rtol0_unsupported when J(u_0) holds no contact
+        stiffness at all — the first step is then the unsupported body's response, which the line search
+        cuts to a fraction (0.07–0.34 on the family's m_n > 1 members) — else the preset's."""
+        self.first_jacobian = False
+        if not self.snes.getUseEW() or "snes_ksp_ew_rtol0" in self.user_keys:
+            return
+        unsupported = A.norm() == self.K.norm()  # (J(u_0) = K entry by entry, or an added contact term)
+        rtol0 = self.options["ew_rtol0_unsupported"] if unsupported else self.options.get("snes_ksp_ew_rtol0", 0.3)
+        self.snes.setParamsEW(rtol_0=float(rtol0))
+
+    # --- solving -----------------------------------------------------------------------------------
+
+    def _target(self, initial_norm):
+        """‖F‖ <= max(snes_rtol ‖F(u_0)‖, ATOL_OF_LOAD ‖L‖) (or the given snes_atol): as an absolute
+        tolerance, the same for every attempt of one load step (a retry starts from another ‖F‖)."""
+        if not self.atol_given:
+            self.atol = max(ATOL_OF_LOAD * self.load.norm(), 1e-300)
+        return max(self.atol, self.rtol * initial_norm)
+
+    def _snes_solve(self, x, stats, target):
+        """SNES from x to ‖F‖ <= target, given as both atol and rtol ‖F(x)‖: then it never stops above the
+        target, and Eisenstat–Walker's guard against oversolving (version 3: rtol ‖F_0‖) aims the last
+        Krylov solve at the target."""
+        self._residual(self.snes, x, self.b)
+        fnorm = self.b.norm()
+        self.snes.setTolerances(rtol=min(1.0, target / fnorm) if fnorm > 0 else 0.0, atol=target)
+        try:
+            self.snes.solve(None, x)
+            reason = self.snes.getConvergedReason()
+        except _LineSearchFailure:  # x is still the iterate the line search started from
+            reason = PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH
+        stats.newton_iterations += self.snes.getIterationNumber()
+        stats.linear_iterations += self.snes.getLinearSolveIterations()
+        stats.converged_reason = REASONS.get(reason, str(reason))
+        return reason > 0
+
+    # Fallbacks after a failed SNES solve, in this order, each from the last good iterate. None costs
+    # anything unless a solve fails.
+    def _retry_refreshed(self, x, stats, target):
+        """Rebuild P from J at the current iterate (a stale P is the cheap cause of a stall)."""
+        self.force_refresh = True
+        return self._snes_solve(x, stats, target)
+
+    def _retry_stronger(self, x, stats, target):
+        """P = J at every Newton step and GMRES instead of CG (robust to a PC that is not SPD, as seen
+        with CG + GAMG on a 3D penalty problem)."""
+        self.mode, self.force_refresh = "jacobian", True
+        ksp = self.snes.getKSP()
+        if ksp.getType() == PETSc.KSP.Type.CG:
+            ksp.setType(PETSc.KSP.Type.GMRES)
+        return self._snes_solve(x, stats, target)
+
+    def _retry_continuation(self, x, stats, target, start, factor):
+        """Load continuation from the initial guess: increments of the load factor, halved on failure."""
+        start.copy(x)
+        last = x.copy()  # the last converged increment
+        done, step, final = self.load_factor - factor, factor / 4, self.load_factor
+        try:
+            while done < final - 1e-12:
+                self.load_factor = min(done + step, final)
+                if self._snes_solve(x, stats, target * self.load_factor / final):
+                    done = self.load_factor
+                    x.copy(last)
+                elif step < factor / 64:
+                    return False
+                else:
+                    last.copy(x)
+                    step /= 2
+            return True
+        finally:
+            self.load_factor = final
+            last.destroy()
+
+    def _solve_load_step(self, x, stats, factor):
+        """Solve at the current load factor from x (the previous step's solution); ``factor``: its
+        increment. Returns the fallbacks used."""
+        self._residual(self.snes, x, self.b)
+        target = self._target(self.b.norm())
+        start = x.copy()
+        used = []
+        try:
+            if self._snes_solve(x, stats, target) or not _flag(self.options["fallbacks"]):
+                if stats.converged_reason.startswith("CONVERGED"):
+                    return used
+                raise InputError(f"SNES diverged ({stats.converged_reason}) after {stats.newton_iterations} "
+                                 "Newton iterations (fallbacks off); try -fallbacks true")
+            for name, retry in (("refresh", self._retry_refreshed), ("stronger_pc", self._retry_stronger)):
+                used.append(name)
+                if not np.all(np.isfinite(x.array)):
+                    start.copy(x)
+                if retry(x, stats, target):
+                    return used
+            used.append("continuation")
+            if self._retry_continuation(x, stats, target, start, factor):
+                return used
+            raise InputError(f"SNES diverged ({stats.converged_reason}) after {stats.newton_iterations} Newton "
+                             f"iterations (fallbacks tried: {', '.join(used)}); try -snes_max_it, "
+                             "--load-steps or a smaller c_n")
+        finally:
+            start.destroy()
 
     def solve(self, load_steps=1):
         """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""
         stats, start = SolveStats(), time.perf_counter()
         x = self.u.vector.copy()
         fem_petsc.set_bc(x, self.bcs)  # homogeneous Dirichlet data: the guess must satisfy it
-        for step in range(1, load_steps + 1):
-            self.load_factor = step / load_steps
-            self.snes.solve(None, x)
-            reason = self.snes.getConvergedReason()
-            stats.newton_iterations += self.snes.getIterationNumber()
-            stats.linear_iterations += self.snes.getLinearSolveIterations()
-            stats.converged_reason = REASONS.get(reason, str(reason))
-            if reason <= 0:
-                raise InputError(f"SNES diverged ({stats.converged_reason}) after "
-                                 f"{self.snes.getIterationNumber()} Newton iterations"
-                                 + (f" in load step {step}/{load_steps}" if load_steps > 1 else "")
-                                 + "; try --load-steps, -snes_linesearch_type or a smaller c_n")
-        self._update(x)
-        x.destroy()
+        self._reset_preconditioner_state()
+        recoveries = []
+        try:
+            for step in range(1, load_steps + 1):
+                self.load_factor = step / load_steps
+                try:
+                    recoveries += self._solve_load_step(x, stats, 1.0 / load_steps)
+                except InputError as err:
+                    where = f" in load step {step}/{load_steps}" if load_steps > 1 else ""
+                    raise InputError(str(err).replace(" (fallbacks", where + " (fallbacks", 1)) from None
+            self._update(x)
+        finally:
+            x.destroy()
         stats.time = time.perf_counter() - start
-        stats.preconditioner_matrix = self.mode
+        stats.preconditioner_matrix = self.configured_mode  # (a fallback's mode is not carried to the next level)
+        stats.preset = self.preset
+        stats.pc_setups = self.pc_setups
+        stats.recoveries = ",".join(recoveries)
         return stats
 
     def destroy(self):
-        owned = [self.snes, self.A, self.K, self.b, self.contact, self.load]
+        owned = [self.snes, self.A, self.K, self.b, self.contact, self.load, self.work, self.trial]
         for obj in owned + ([self.P] if self.P is not self.K else []):
             obj.destroy()

@@ -255,7 +255,7 @@ CASES = [
      "unknown option '-levels' (did you mean --levels?)"),
     ("bad_option_value", lambda m, t: ["block", *FAST, "--levels", "many"], "argument --levels"),
     ("bad_option_choice", lambda m, t: ["block", "--refine", "sideways"], "argument --refine"),
-    ("bad_load_steps_option", lambda m, t: ["block", *FAST, "--load-steps", "0"], "--load-steps must be >= 1"),
+    ("bad_load_steps_option", lambda m, t: ["block", *FAST, "--load-steps", "0"], "solver.load_steps must be >= 1"),
 ]
 
 

@@ -90,7 +90,7 @@ STRICT = [
     (with_("adapt.refine", "adaptve"), "did you mean 'adaptive'?"),
     (with_("mesh.cells", DELETE), "mesh.cells is required with mesh.rectangle"),
     (with_("mesh.cells", [4, 4, 4]), "mesh.cells must be 2 positive integers"),
-    (with_("mesh.box", [[0, 0, 0], [1, 1, 1]]), "exactly one of 'file', 'rectangle' or 'box'"),
+    (with_("mesh.box", [[0, 0, 0], [1, 1, 1]]), "takes one of 'file', 'rectangle' or 'box', got rectangle, box"),
     (with_("loads.f", ["0", "-1", "0"]), "loads.f has 3 components but the mesh is 2D"),
     (with_("loads.from_exact", True), "loads.from_exact needs [exact] u"),
     (with_("loads.g", {"top": ["0", "1"]}), "'top', which is not a neumann group"),
