@@ -16,7 +16,7 @@ import nc_dolfinx as nc
 CASES_3D = ("box", "hertz3d", "manufactured3d", "fichera")
 MANUFACTURED = ROOT / "nc_dolfinx" / "cases" / "manufactured3d.toml"
 # small enough for CI: the built-in boxes get coarser cells, the gmsh cases keep their level-0 meshes
-TINY = {"box": ["mesh.cells=[4,2,2]"], "manufactured3d": ["mesh.cells=[3,3,3]"], "hertz3d": [], "fichera": []}
+TINY = {"box": ["mesh.cells=[6,3,3]"], "manufactured3d": ["mesh.cells=[3,3,3]"], "hertz3d": [], "fichera": []}
 
 
 # --- the manufactured solution, symbolically ------------------------------------------------------------
@@ -88,7 +88,9 @@ def solved(request):
     return request.param, out
 
 
-EXACT = ("dofs", "cells", "newton_iterations")
+# In 3D the default linear solver is GAMG, whose aggregates depend on the partition: the Newton iterates,
+# and at times their number, differ between rank counts, the converged solutions agree to the tolerance.
+EXACT = ("dofs", "cells")
 CLOSE = ("u_l2", "elastic_energy", "contact_resultant", "max_contact_pressure", "max_penetration",
          "contact_area", "h1_error", "l2_error")
 

@@ -59,22 +59,25 @@ computed force of the whole ball F = 4 ∫_Γ_C p.
 
 def _fichera(fi):
     ref = fi["reference"]
-    n = fi["compared_adaptive_levels"]
-    last = fi["histories"]["adaptive"][n - 1]["dofs"]
+    made = "refined uniformly once" if ref.get("uniform", True) else "itself"
     return f"""The built-in case `fichera`: the cube (−1, 1)³ without the octant (0, 1]³, clamped on x = −1, loaded by a downward
-traction on its top z = 1, on the foundation c_n = 10³, m_n = 1.5 along its base z = −1 (E = 10³, ν = 0.3). The
-solution is singular along the three re-entrant edges (u ~ r^λ, λ ≈ 0.54 for a 270° edge), at the Fichera vertex
-and along the edges where the clamp meets the loaded top and the contact base; uniform refinement converges like
-h^λ ~ dofs^(−λ/3), adaptive refinement should recover dofs^(−1/3) (isotropic grading suffices for edge exponents
-λ > 1/3). There is no exact solution. The error is measured in energy: u_h minimises the convex energy Π over V_h,
-and Π(v) − Π(u) = ½ ‖v − u‖_a² + B(v, u) with B ≥ 0 the Bregman distance of the contact energy, so
+traction on its top z = 1, on the foundation c_n = 10³, m_n = 1.5 along its base z = −1 (E = 10³, ν = 0.3), refined
+adaptively (Dörfler, θ = 0.3, the case's setting) and uniformly. The solution is singular along the three re-entrant
+edges (u ~ r^λ, λ ≈ 0.54 for a 270° edge), at the Fichera vertex and along the edges where the clamp meets the
+loaded top and the contact base; uniform refinement converges like h^λ ~ dofs^(−λ/3) ≈ dofs^(−0.18) once the
+singularities dominate the error, adaptive refinement can recover dofs^(−1/3) (isotropic grading suffices for edge
+exponents λ > 1/3).
+
+There is no exact solution. The rates are measured with η: by Theorems 6 and 7 (reliability and local efficiency,
+with constants that depend on the shape regularity only, which Plaza refinement keeps) η and the error are
+equivalent, so they have the same rate; study 9 shows η/‖u − u_h‖_1 settling in 3D. That equivalence is checked
+here against an error measured in energy: u_h minimises the convex energy Π over V_h, and
+Π(v) − Π(u) = ½ ‖v − u‖_a² + B(v, u) with B ≥ 0 the Bregman distance of the contact energy, so
 E_h = (2 (Π(u_h) − Π_ref))^½ bounds the energy-norm error from above (the contact part of B is of the size of the
 contact term of Remark 9's ẽ). It needs one number per mesh and no transfer between meshes, so it serves the
-non-nested uniform meshes as well as the adaptive ones. Π_ref is the energy of the reference solution: the adaptive
-mesh of level {ref['from_adaptive_level']} refined uniformly once, {ref['dofs']} dofs ({ref['dofs'] / last:.0f}× the finest compared adaptive
-level; if its error decays like dofs^(−1/3) it is about {(last / ref['dofs']) ** (1 / 3):.2f}× that level's, which lowers E_h there by roughly
-{100 * (1 - (1 - (last / ref['dofs']) ** (2 / 3)) ** 0.5):.0f} %). η is checked as well: by Theorems 6 and 7 (reliability and local efficiency, with constants that
-depend on the shape regularity only, which Plaza refinement keeps) η and the error have the same rate.
+non-nested uniform meshes as well as the adaptive ones. Π_ref is the energy of the adaptive mesh of level
+{ref['from_adaptive_level']} {made} ({ref['dofs']} dofs); its own error lowers E_h (E_h² = e_h² − e_ref²), by at most 7 % on the levels with
+≤ 1/20 of its dofs (if e ~ dofs^(−1/3)), and more on the finest compared levels, whose E_h slope is therefore too steep.
 """
 
 
@@ -84,7 +87,10 @@ def _fichera_after(fi):
             f"adaptive sequence needs {c['uniform_dofs'] / c['ratio_energy_error']:.0f} dofs (log-log interpolation), "
             f"{c['ratio_energy_error']:.1f}× fewer; for η, {c['ratio_eta']:.1f}× fewer. Fitted slopes over the last "
             f"{FICHERA_FIT} compared adaptive levels: η {c['adaptive_eta']:.3f}, E_h {c['adaptive_energy_error']:.3f}; "
-            f"uniform (last 3 levels): η {c['uniform_eta']:.3f}, E_h {c['uniform_energy_error']:.3f}.\n")
+            f"uniform (last 3 levels): η {c['uniform_eta']:.3f}, E_h {c['uniform_energy_error']:.3f}. The uniform slopes are "
+            "still far from their asymptotic −0.18: at these mesh sizes most of the error is the smooth part, which "
+            "uniform refinement reduces at the optimal rate too; the singular part takes over only on finer meshes "
+            "(in 2D, study 5, the same happens, but 2D meshes reach that regime).\n")
 
 
 def _penalty3d(pe):
