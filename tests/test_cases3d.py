@@ -116,3 +116,47 @@ def test_cases_touch_the_foundation(solved):
         assert fz > 0
         if case != "hertz3d":
             assert abs(fx) < 1e-12 * fz and abs(fy) < 1e-12 * fz
+
+
+# --- the command line on the shipped problems -------------------------------------------------------------
+
+CLI_CLOSE = ("eta", "eta_1", "eta_2", "eta_3", "eta_4", "zeta", "elastic_energy", "contact_resultant",
+             "max_contact_pressure", "contact_area")
+
+
+@pytest.mark.parametrize("case", CASES_3D)
+def test_cli_refine_none_on_1_and_2_ranks(case, tmp_path):
+    """`run_cases.py CASE --refine none` on the case as shipped: it runs, estimates, and 2 ranks give the
+    numbers of 1 (the hertz3d reference comparison included)."""
+    from conftest import run_cli, summary
+    out = {}
+    for nprocs in (1, 2):
+        proc = run_cli([case, "--refine", "none", "--out", tmp_path / str(nprocs), "--quiet"], nprocs)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        out[nprocs] = summary(tmp_path / str(nprocs))
+    serial, parallel = out[1], out[2]
+    assert serial["dofs"] == parallel["dofs"] and serial["eta"] > 0
+    for key in CLI_CLOSE + (("h1_error", "l2_error") if "h1_error" in serial else ()):
+        assert parallel[key] == pytest.approx(serial[key], rel=1e-8), key
+    for s, p in zip(serial["reference"], parallel["reference"]):
+        assert p["computed"] == pytest.approx(s["computed"], rel=1e-8) and p["reference"] > 0
+
+
+# --- manufactured3d converges at the optimal rates ------------------------------------------------------
+
+@pytest.mark.parametrize("m", [1, 3])
+def test_manufactured3d_optimal_rates(m):
+    """Three uniform levels of the 4³ box (375, 2187, 14739 dofs): ‖u − u_h‖_1 = O(h), ‖u − u_h‖_0 = O(h²),
+    η = O(h) (Corollary 8), and a steady effectivity index on the two finer levels."""
+    problem = nc.load_problem("manufactured3d", [f"parameters.m={m}", "mesh.cells=[4,4,4]"])
+    rows = nc.adapt(problem, nc.AdaptSettings(refine="uniform", levels=3)).history
+    h = [0.25 / 2 ** r["level"] for r in rows]
+
+    def rate(key):
+        return np.polyfit(np.log(h), np.log([r[key] for r in rows]), 1)[0]
+
+    assert rate("h1_error") == pytest.approx(1.0, abs=0.1)
+    assert rate("l2_error") == pytest.approx(2.0, abs=0.2)
+    assert rate("eta") == pytest.approx(1.0, abs=0.1)
+    eff = [r["effectivity"] for r in rows[1:]]
+    assert max(eff) / min(eff) - 1 < 0.05 and min(eff) > 1  # Theorem 6: η bounds the error

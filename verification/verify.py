@@ -7,8 +7,8 @@ mpirun, check the expectations, print a table per study and a PASS/FAIL summary.
     /usr/bin/python3 verification/verify.py --np 3 --quick   # the studies on 3 MPI ranks (default 2)
 
 Exit status 0 if every expectation holds, 1 if one fails (or a study crashes). The heavy parts run as
-``mpirun -n NP /usr/bin/python3 verification/worker.py STUDY`` subprocesses (the parallel-invariance study
-on 1, 2 and 3 ranks); this driver only checks, tabulates and plots. Quick mode writes its tables, plots and
+``mpirun -n NP /usr/bin/python3 verification/worker.py STUDY`` subprocesses (``worker3d.py`` for the 3D
+studies; the parallel-invariance studies on 1, 2 and 3 ranks); this driver only checks, tabulates and plots. Quick mode writes its tables, plots and
 report into a temporary directory (``--out`` to choose it), never over the committed full report.
 """
 import argparse
