@@ -278,10 +278,10 @@ def hertz(data):
 
 # --- study 5 -----------------------------------------------------------------------------------------------
 
-def dofs_to_reach(rows, target):
-    """Dofs at which the (log-log interpolated) error curve first reaches ``target``."""
+def dofs_to_reach(rows, target, key="h1_error"):
+    """Dofs at which the (log-log interpolated) curve of ``key`` first reaches ``target``."""
     d = np.array([r["dofs"] for r in rows], float)
-    e = np.array([r["h1_error"] for r in rows], float)
+    e = np.array([r[key] for r in rows], float)
     for i in range(1, len(d)):
         if e[i] <= target:
             t = (math.log(e[i - 1]) - math.log(target)) / (math.log(e[i - 1]) - math.log(e[i]))

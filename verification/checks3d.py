@@ -1,9 +1,6 @@
 """The expectations of the 3D studies (issue 10, item 9), evaluated on worker3d.py's measurements."""
-import math
 
-import numpy as np
-
-from checks import Section, within
+from checks import Section, dofs_to_reach, within
 from checks import penalty as penalty_2d
 from common import fitted_slope, spread
 
@@ -118,17 +115,6 @@ def hertz3d(data):
 
 # --- fichera -----------------------------------------------------------------------------------------------
 
-def dofs_to_reach(rows, key, target):
-    """Dofs at which the (log-log interpolated) curve of ``key`` first reaches ``target``."""
-    d = np.array([r["dofs"] for r in rows], float)
-    e = np.array([r[key] for r in rows], float)
-    for i in range(1, len(d)):
-        if e[i] <= target:
-            t = (math.log(e[i - 1]) - math.log(target)) / (math.log(e[i - 1]) - math.log(e[i]))
-            return float(math.exp(math.log(d[i - 1]) + t * (math.log(d[i]) - math.log(d[i - 1]))))
-    return float("nan")
-
-
 def fichera_summary(data):
     n = data["compared_adaptive_levels"]
     adaptive, uniform = data["histories"]["adaptive"][:n], data["histories"]["uniform"]
@@ -137,7 +123,7 @@ def fichera_summary(data):
         out[f"adaptive_{key}"] = slope(adaptive, key, FICHERA_FIT)
         out[f"uniform_{key}"] = slope(uniform, key, 3)
         target = uniform[-1][key]
-        out[f"ratio_{key}"] = uniform[-1]["dofs"] / dofs_to_reach(adaptive, key, target)
+        out[f"ratio_{key}"] = uniform[-1]["dofs"] / dofs_to_reach(adaptive, target, key)
         out[f"target_{key}"] = target
     out["uniform_dofs"] = uniform[-1]["dofs"]
     return out

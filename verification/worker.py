@@ -417,17 +417,20 @@ STUDIES = {"manufactured": study_manufactured, "closed_form": study_closed_form,
            "penalty": study_penalty, "hertz": study_hertz, "corner": study_corner, "parallel": study_parallel}
 
 
-def main():
+def main(studies=None, config=None, with_output_path=("corner",)):
+    """Run one study (the command line above) and write its JSON result; worker3d.py reuses this with its
+    own studies and configuration. The studies in ``with_output_path`` also get the result's path."""
+    studies, config = studies or STUDIES, config or CONFIG
     parser = argparse.ArgumentParser()
-    parser.add_argument("study", choices=sorted(STUDIES))
+    parser.add_argument("study", choices=sorted(studies))
     parser.add_argument("--mode", choices=("quick", "full"), default="quick")
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     out = Path(args.out)
     start = time.perf_counter()
-    cfg = CONFIG[args.mode][args.study if args.study != "corner_errors" else "corner"]
-    func = STUDIES[args.study]
-    result = func(cfg, out) if args.study == "corner" else func(cfg)
+    cfg = config[args.mode][args.study]
+    func = studies[args.study]
+    result = func(cfg, out) if args.study in with_output_path else func(cfg)
     result.update({"study": args.study, "mode": args.mode, "ranks": COMM.size, "time": time.perf_counter() - start,
                    "config": cfg})
     if COMM.rank == 0:

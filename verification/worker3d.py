@@ -5,17 +5,13 @@
 Like worker.py (whose helpers it uses): only the public API (``import nc_dolfinx as nc``), one JSON file per
 run (rank 0); the checks, tables and plots are verify.py's business.
 """
-import argparse
-import json
 import math
 import sys
 import time
-from pathlib import Path
 
-import numpy as np
 import ufl
 
-from worker import COMM, PENALTY_SET, clean_row, penalty_limit, say, uniform_settings  # noqa: F401
+from worker import COMM, clean_row, main, penalty_limit, say, uniform_settings
 
 import nc_dolfinx as nc
 
@@ -172,24 +168,5 @@ STUDIES = {"manufactured3d": study_manufactured3d, "hertz3d": study_hertz3d, "fi
            "penalty3d": study_penalty3d, "parallel3d": study_parallel3d}
 
 
-def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("study", choices=sorted(STUDIES))
-    parser.add_argument("--mode", choices=("quick", "full"), default="quick")
-    parser.add_argument("--out", required=True)
-    args = parser.parse_args()
-    out = Path(args.out)
-    start = time.perf_counter()
-    cfg = CONFIG[args.mode][args.study]
-    result = STUDIES[args.study](cfg)
-    result.update({"study": args.study, "mode": args.mode, "ranks": COMM.size, "time": time.perf_counter() - start,
-                   "config": cfg})
-    if COMM.rank == 0:
-        tmp = out.with_name(out.name + ".tmp")
-        tmp.write_text(json.dumps(result, indent=1, default=float))
-        tmp.replace(out)
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(STUDIES, CONFIG, with_output_path=()))
