@@ -33,10 +33,10 @@ def refine(domain, cells=None):
     :class:`Domain`, its boundary groups re-tagged from the level-0 boundary and its material regions
     carried over; cells stay on their rank."""
     msh, tdim = domain.mesh, domain.mesh.topology.dim
+    msh.topology.create_entities(1)  # Plaza needs the edges, also for uniform refinement of tetrahedra
     if cells is None:
         child = dmesh.refine(msh, redistribute=False)
     else:
-        msh.topology.create_entities(1)
         edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), tdim, 1)
         child = dmesh.refine(msh, edges, redistribute=False)
     if msh.comm.size > 1 and _has_duplicate_ghosts(child):

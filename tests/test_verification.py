@@ -1,4 +1,4 @@
-"""The verification studies (verification/verify.py --quick): every expectation of issue 4 holds.
+"""The verification studies (verification/verify.py --quick): every expectation of issues 4 and 10 holds.
 
 Runs the quick mode as CI does (the studies on 2 MPI ranks, the parallel study on 1, 2 and 3) into a
 temporary directory, and checks its exit status, that every study reported, and the quick report.
@@ -9,7 +9,9 @@ import subprocess
 from conftest import PYTHON, ROOT
 
 STUDIES = ["1. Manufactured solution", "2. Closed-form check", "3. Penalty → Signorini", "4. Hertz line contact",
-           "5. Adaptive against uniform", "6. Local efficiency", "7. Parallel invariance"]
+           "5. Adaptive against uniform", "6. Local efficiency", "7. Parallel invariance",
+           "9. 3D manufactured solution", "10. 3D Hertz contact", "11. 3D adaptive against uniform",
+           "12. 3D penalty → Signorini", "13. 3D parallel invariance"]
 
 
 def test_quick_verification_passes(tmp_path):
@@ -25,5 +27,6 @@ def test_quick_verification_passes(tmp_path):
     assert "; PASS (quick mode" in summary
     report = (tmp_path / "report.md").read_text()
     assert "quick-mode" in report and "**Overall: PASS**" in report
-    for picture in ("manufactured_rates.png", "corner_meshes.png", "penalty.png", "hertz.png"):
+    for picture in ("manufactured_rates.png", "corner_meshes.png", "penalty.png", "hertz.png",
+                    "manufactured3d_rates.png", "hertz3d.png", "fichera_convergence.png", "penalty3d.png"):
         assert (tmp_path / picture).is_file()

@@ -278,10 +278,10 @@ def hertz(data):
 
 # --- study 5 -----------------------------------------------------------------------------------------------
 
-def dofs_to_reach(rows, target):
-    """Dofs at which the (log-log interpolated) error curve first reaches ``target``."""
+def dofs_to_reach(rows, target, key="h1_error"):
+    """Dofs at which the (log-log interpolated) curve of ``key`` first reaches ``target``."""
     d = np.array([r["dofs"] for r in rows], float)
-    e = np.array([r["h1_error"] for r in rows], float)
+    e = np.array([r[key] for r in rows], float)
     for i in range(1, len(d)):
         if e[i] <= target:
             t = (math.log(e[i - 1]) - math.log(target)) / (math.log(e[i - 1]) - math.log(e[i]))
@@ -403,20 +403,22 @@ BUILDERS = {"manufactured": manufactured, "closed_form": closed_form, "penalty":
 
 
 def evaluate(results, errors, mode):
+    import checks3d  # the 3D studies (it imports this module's helpers)
+    titles, builders = {**TITLES, **checks3d.TITLES}, {**BUILDERS, **checks3d.BUILDERS}
+    order = ["manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity",
+             *checks3d.ORDER]
     sections = []
-    for key in ("manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity"):
+    for key in order:
         source = "manufactured" if key == "efficiency" else key
         if source not in results and source not in errors:
             continue
         if source in errors:
-            sec = Section(key, TITLES[key], error=errors[source])
+            sec = Section(key, titles[key], error=errors[source])
         else:
             try:
-                sec = (efficiency if key == "efficiency" else BUILDERS[key])(results[source])
+                sec = (efficiency if key == "efficiency" else builders[key])(results[source])
             except Exception as err:  # a malformed result is a failure of the study, reported as such
                 import traceback
-                sec = Section(key, TITLES[key], error=f"{type(err).__name__}: {err}\n{traceback.format_exc()}")
+                sec = Section(key, titles[key], error=f"{type(err).__name__}: {err}\n{traceback.format_exc()}")
         sections.append(sec)
-    order = ["manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity"]
-    sections.sort(key=lambda s: order.index(s.key))
     return Report(sections, mode)

@@ -222,6 +222,9 @@ and study 5 are the sharp tests.
     else:
         add("Not run in this mode (`--sensitivity yes` to run it).\n")
 
+    from narrative3d import compose3d
+    add(compose3d(sec, results, pictures, section_md))
+
     add("## What this says about the paper's results\n")
     add(_conclusions(report, results))
     add(f"""## Reproducing
@@ -231,9 +234,9 @@ and study 5 are the sharp tests.
 /usr/bin/python3 verification/verify.py --quick    # CI mode, same expectations on fewer levels (temp dir)
 /usr/bin/python3 -m pytest tests/test_verification.py
 ```
-Files: `verify.py` (driver, expectations via `checks.py`, this text via `report.py`/`narrative.py`), `worker.py`
-(the computations, run under mpirun), `signorini.py` (the VI solver), `overlay.py` (exact error between
-non-nested meshes), `common.py`.
+Files: `verify.py` (driver, expectations via `checks.py`/`checks3d.py`, this text via `report.py`/`report3d.py`/
+`narrative.py`/`narrative3d.py`), `worker.py` and `worker3d.py` (the computations, run under mpirun), `signorini.py`
+(the VI solver), `overlay.py` (exact error between non-nested meshes), `common.py`.
 """)
     return "\n".join(L)
 
@@ -345,4 +348,6 @@ def _conclusions(report, results):
         out.append(f"- **Parallel.** 1, 2 and 3 ranks: {state('parallel')}.")
     if "sensitivity" in results:
         out.append(f"- **Sensitivity.** A broken estimator makes the quick mode fail: {state('sensitivity')}.")
+    from narrative3d import conclusions3d
+    out += conclusions3d(state, results)
     return "\n".join(out) + "\n"

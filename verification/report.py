@@ -241,6 +241,8 @@ def write(report, results, out, mode, nprocs, total_time, timings):
     pictures, plot_errors = {}, []
     plots = {"manufactured": [plot_manufactured, plot_indicators], "efficiency": [plot_efficiency],
              "closed_form": [plot_closed_form], "penalty": [plot_penalty], "hertz": [plot_hertz], "corner": [plot_corner]}
+    from report3d import PLOTS
+    plots.update(PLOTS)
     for study, funcs in plots.items():
         source = "manufactured" if study == "efficiency" else study
         if source in results:

@@ -4,10 +4,11 @@ semismooth variational-inequality Newton (SNES ``vinewtonrsls``).
     find u_h ∈ V_h:  u_hn(x) ≤ g_0(x) at every node x of Γ_C,
                      a(u_h, v_h − u_h) ≥ L(v_h − u_h)  for all admissible v_h.
 
-On a straight bottom boundary Γ_C (outward normal ν = (0, −1)) u_hn = −u_hy, so the constraint is the box
-bound u_hy ≥ −g_0 on the y-dofs of the contact nodes, and every other dof is unbounded. The linear
-elasticity residual F(u) = K u − L and K are assembled once; Dirichlet rows are identity rows (F = u on
-Γ_D, kept at zero). The solver works for any body whose contact boundary is the bottom y = y_min.
+On a flat bottom boundary Γ_C (outward normal ν = −e_d, the last coordinate: ν = (0, −1) in 2D,
+(0, 0, −1) in 3D) u_hn = −u_hd, so the constraint is the box bound u_hd ≥ −g_0 on the vertical dofs of the
+contact nodes, and every other dof is unbounded. The linear elasticity residual F(u) = K u − L and K are
+assembled once; Dirichlet rows are identity rows (F = u on Γ_D, kept at zero). The solver works for any
+body whose contact boundary is its bottom (y = y_min in 2D, z = z_min in 3D).
 """
 import numpy as np
 import ufl
@@ -44,25 +45,27 @@ def solve_signorini(problem, domain, rtol=1e-12, atol=1e-13):
     load.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     fem_petsc.set_bc(load, bcs)
 
-    # bounds: u_y >= -g_0 at the contact nodes, unbounded elsewhere
+    # bounds: u_d >= -g_0 (d the vertical axis) at the contact nodes, unbounded elsewhere
+    dim, fdim = msh.geometry.dim, msh.topology.dim - 1
+    vertical = dim - 1
     tags = domain.facet_tags
     contact_facets = tags.indices[np.isin(tags.values, fields.ids["contact"])]
-    Vy, _ = V.sub(1).collapse()
-    dofs_y, dofs_Vy = fem.locate_dofs_topological((V.sub(1), Vy), 1, contact_facets)
+    Vy, _ = V.sub(vertical).collapse()
+    dofs_y, dofs_Vy = fem.locate_dofs_topological((V.sub(vertical), Vy), fdim, contact_facets)
     gap = fem.Function(Vy)  # g_0 at the nodes
     points = Vy.element.interpolation_points
     gap.interpolate(fem.Expression(fields.gap, points() if callable(points) else points))
     normal_check = ufl.FacetNormal(msh)
-    ny = fem.assemble_scalar(fem.form(normal_check[1] * fields.ds_of("contact")))
+    ny = fem.assemble_scalar(fem.form(normal_check[vertical] * fields.ds_of("contact")))
     length = fem.assemble_scalar(fem.form(1.0 * fields.ds_of("contact")))
     ny, length = msh.comm.allreduce(ny, MPI.SUM), msh.comm.allreduce(length, MPI.SUM)
     if abs(ny + length) > 1e-10 * length:
-        raise ValueError("solve_signorini needs a flat bottom contact boundary (ν = (0, −1))")
+        raise ValueError("solve_signorini needs a flat bottom contact boundary (ν = −e_d, d the last axis)")
 
     lower, upper = u.vector.duplicate(), u.vector.duplicate()
     lower.set(PETSc.NINFINITY)
     upper.set(PETSc.INFINITY)
-    n_owned = V.dofmap.index_map.size_local * 2
+    n_owned = V.dofmap.index_map.size_local * dim
     owned = dofs_y[dofs_y < n_owned]
     lower.array[owned] = -gap.x.array[dofs_Vy[dofs_y < n_owned]]
 

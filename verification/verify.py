@@ -7,8 +7,8 @@ mpirun, check the expectations, print a table per study and a PASS/FAIL summary.
     /usr/bin/python3 verification/verify.py --np 3 --quick   # the studies on 3 MPI ranks (default 2)
 
 Exit status 0 if every expectation holds, 1 if one fails (or a study crashes). The heavy parts run as
-``mpirun -n NP /usr/bin/python3 verification/worker.py STUDY`` subprocesses (the parallel-invariance study
-on 1, 2 and 3 ranks); this driver only checks, tabulates and plots. Quick mode writes its tables, plots and
+``mpirun -n NP /usr/bin/python3 verification/worker.py STUDY`` subprocesses (``worker3d.py`` for the 3D
+studies; the parallel-invariance studies on 1, 2 and 3 ranks); this driver only checks, tabulates and plots. Quick mode writes its tables, plots and
 report into a temporary directory (``--out`` to choose it), never over the committed full report.
 """
 import argparse
@@ -27,12 +27,16 @@ sys.path.insert(0, str(HERE))
 from common import PYTHON, child_env, mpirun_prefix  # noqa: E402
 import checks  # noqa: E402
 
-STUDY_ORDER = ["manufactured", "closed_form", "penalty", "hertz", "corner", "parallel"]
+STUDY_ORDER = ["manufactured", "closed_form", "penalty", "hertz", "corner", "parallel",
+               "manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d"]
+STUDIES_3D = {"manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d"}  # run by worker3d.py
+ON_ALL_RANK_COUNTS = {"parallel", "parallel3d"}
 PARALLEL_RANKS = (1, 2, 3)
 
 
 def run_worker(study, mode, nprocs, out_json, log, timeout):
-    cmd = mpirun_prefix(nprocs) + [PYTHON, str(HERE / "worker.py"), study, "--mode", mode, "--out", str(out_json)]
+    worker = "worker3d.py" if study in STUDIES_3D else "worker.py"
+    cmd = mpirun_prefix(nprocs) + [PYTHON, str(HERE / worker), study, "--mode", mode, "--out", str(out_json)]
     start = time.perf_counter()
     try:
         proc = subprocess.run(cmd, env=child_env(), capture_output=True, text=True, timeout=timeout)
@@ -95,11 +99,12 @@ def main(argv=None):
         print(f"\n=== running {study} ...", flush=True)
         try:
             if args.reuse:
-                names = [f"parallel_{n}.json" for n in PARALLEL_RANKS] if study == "parallel" else [f"{study}.json"]
+                every = study in ON_ALL_RANK_COUNTS
+                names = [f"{study}_{n}.json" for n in PARALLEL_RANKS] if every else [f"{study}.json"]
                 loaded = [json.loads((work / name).read_text()) for name in names]
-                results[study] = dict(zip(PARALLEL_RANKS, loaded)) if study == "parallel" else loaded[0]
-            elif study == "parallel":
-                results[study] = {n: run_worker(study, mode, n, work / f"parallel_{n}.json", log, args.timeout)
+                results[study] = dict(zip(PARALLEL_RANKS, loaded)) if every else loaded[0]
+            elif study in ON_ALL_RANK_COUNTS:
+                results[study] = {n: run_worker(study, mode, n, work / f"{study}_{n}.json", log, args.timeout)
                                   for n in PARALLEL_RANKS}
             else:
                 results[study] = run_worker(study, mode, args.np, work / f"{study}.json", log, args.timeout)

@@ -223,36 +223,42 @@ PENALTY_SET = ['loads.f=["0","0"]', 'loads.g={top=["0","-40*pos(1-x)"]}', 'conta
 
 def contact_nodal_force(u, fields):
     """Σ_i ∫_Γ_C p φ_i over the contact nodes i that are not on Γ_D: the penalty's discrete contact force as the
-    Signorini solver sees it (its multipliers live on the free contact nodes only)."""
+    Signorini solver sees it (its multipliers live on the free contact nodes only; on the vertical dofs)."""
     V = u.function_space
+    dim, fdim = V.mesh.geometry.dim, V.mesh.topology.dim - 1
     v = ufl.TestFunction(V)
     p = nc.contact_pressure(u, fields)
-    vec = fem.petsc.assemble_vector(fem.form(p * v[1] * nc.contact_measure(fields)))
+    vec = fem.petsc.assemble_vector(fem.form(p * v[dim - 1] * nc.contact_measure(fields)))
     vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     tags = fields.domain.facet_tags
-    contact = fem.locate_dofs_topological(V.sub(1), 1, tags.indices[np.isin(tags.values, fields.ids["contact"])])
-    clamped = fem.locate_dofs_topological(V.sub(1), 1, tags.indices[np.isin(tags.values, fields.ids["dirichlet"])])
+    vertical = V.sub(dim - 1)
+    contact = fem.locate_dofs_topological(vertical, fdim, tags.indices[np.isin(tags.values, fields.ids["contact"])])
+    clamped = fem.locate_dofs_topological(vertical, fdim, tags.indices[np.isin(tags.values, fields.ids["dirichlet"])])
     dofs = np.setdiff1d(contact, clamped)
-    dofs = dofs[dofs < V.dofmap.index_map.size_local * 2]
+    dofs = dofs[dofs < V.dofmap.index_map.size_local * dim]
     local = float(np.sum(vec.array[dofs]))
     vec.destroy()
     return COMM.allreduce(local, MPI.SUM)
 
 
 def study_penalty(cfg):
+    return penalty_limit("block", cfg["cells"], PENALTY_SET, cfg["eps"])
+
+
+def penalty_limit(case, cells, overrides, eps_values):
+    """The discrete Signorini solution on the case's mesh (``cells`` per direction) and the penalty solutions
+    (m_n = 1, c_n = 1/ε) for each ε, from the largest ε down (each started from the previous one)."""
     from signorini import solve_signorini
-    block = "block"
-    cells = cfg["cells"]
-    base = [f"mesh.cells=[{cells[0]},{cells[1]}]", "contact.m_n=1"] + PENALTY_SET
-    problem = nc.load_problem(block, base + ["contact.c_n=1.0"])
+    base = [f"mesh.cells={list(cells)}".replace(" ", ""), "contact.m_n=1"] + overrides
+    problem = nc.load_problem(case, base + ["contact.c_n=1.0"])
     domain = nc.build_domain(problem, COMM)
     fields, u_S, info = solve_signorini(problem, domain)
     say(f"  Signorini (vinewtonrsls): {info['iterations']} its, {info['reason']}, "
         f"active contact nodes {info['active']}/{info['contact_nodes']}")
     quantities_S = nc.solution_quantities(u_S, fields)
     rows, previous = [], None
-    for eps in sorted(cfg["eps"], reverse=True):
-        pb = nc.load_problem(block, base + [f"contact.c_n={1.0 / eps!r}"])
+    for eps in sorted(eps_values, reverse=True):
+        pb = nc.load_problem(case, base + [f"contact.c_n={1.0 / eps!r}"])
         t = time.perf_counter()
         solution = nc.solve(pb, domain, initial=previous)
         fields_e, u_e, stats = solution.fields, solution.u, solution.stats
@@ -261,7 +267,7 @@ def study_penalty(cfg):
         l2 = math.sqrt(nc.integrate(ufl.inner(diff, diff) * ufl.dx, COMM))
         h1 = math.sqrt(l2 ** 2 + nc.integrate(ufl.inner(ufl.grad(diff), ufl.grad(diff)) * ufl.dx, COMM))
         q = nc.solution_quantities(u_e, fields_e)
-        n_owned = u_e.function_space.dofmap.index_map.size_local * 2
+        n_owned = u_e.function_space.dofmap.index_map.size_local * fields_e.dim
         linf = COMM.allreduce(float(np.max(np.abs(diff.x.array[:n_owned]), initial=0.0)), MPI.MAX)
         nodal = contact_nodal_force(u_e, fields_e)
         rows.append({"eps": eps, "c_n": 1.0 / eps, "h1_diff": h1, "l2_diff": l2, "max_diff": linf,
@@ -271,7 +277,8 @@ def study_penalty(cfg):
         say(f"  penalty eps={eps:.0e}: |u_eps - u_S|_1 = {h1:.3e}, max penetration {q['max_penetration']:.3e}, "
             f"{stats.newton_iterations} Newton its")
         previous = u_e
-    return {"mesh": cells, "E": problem["material.E"], "overrides": PENALTY_SET, "signorini": info, "signorini_force": info["reaction"],
+    return {"mesh": list(cells), "E": problem["material.E"], "overrides": overrides, "signorini": info,
+            "signorini_force": info["reaction"],
             "signorini_quantities": {k: v for k, v in quantities_S.items() if k != "contact_force"},
             "rows": rows}
 
@@ -410,17 +417,20 @@ STUDIES = {"manufactured": study_manufactured, "closed_form": study_closed_form,
            "penalty": study_penalty, "hertz": study_hertz, "corner": study_corner, "parallel": study_parallel}
 
 
-def main():
+def main(studies=None, config=None, with_output_path=("corner",)):
+    """Run one study (the command line above) and write its JSON result; worker3d.py reuses this with its
+    own studies and configuration. The studies in ``with_output_path`` also get the result's path."""
+    studies, config = studies or STUDIES, config or CONFIG
     parser = argparse.ArgumentParser()
-    parser.add_argument("study", choices=sorted(STUDIES))
+    parser.add_argument("study", choices=sorted(studies))
     parser.add_argument("--mode", choices=("quick", "full"), default="quick")
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     out = Path(args.out)
     start = time.perf_counter()
-    cfg = CONFIG[args.mode][args.study if args.study != "corner_errors" else "corner"]
-    func = STUDIES[args.study]
-    result = func(cfg, out) if args.study == "corner" else func(cfg)
+    cfg = config[args.mode][args.study]
+    func = studies[args.study]
+    result = func(cfg, out) if args.study in with_output_path else func(cfg)
     result.update({"study": args.study, "mode": args.mode, "ranks": COMM.size, "time": time.perf_counter() - start,
                    "config": cfg})
     if COMM.rank == 0:
