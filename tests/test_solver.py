@@ -241,13 +241,14 @@ def test_petsc_options_from_the_command_line_and_the_problem_file(tmp_path):
 
 
 def test_benchmark_family_runs_and_every_member_converges(tmp_path):
-    """benchmarks/family.py end to end on 16x16 meshes (no timing is checked here): every member of the
-    family converges with no options, on 1 rank."""
+    """benchmarks/family.py end to end on 16x16 squares and 4x4x4 cubes (no timing is checked here):
+    every member of the family, 2D and 3D, converges with no options and no fallback, on 1 rank."""
     import json
     from conftest import run
     proc = run([ROOT / "benchmarks" / "family.py", "--smoke", "--np", "1", "--no-nested",
                 "--json-out", tmp_path / "family.json"], timeout=600)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     rows = json.loads((tmp_path / "family.json").read_text())
-    assert len(rows) >= 14 and all(r["reason"].startswith("CONVERGED") for r in rows)
-    assert {r["body"] for r in rows} == {"square", "two_materials"}
+    assert len(rows) >= 28 and all(r["reason"].startswith("CONVERGED") and not r["recoveries"] for r in rows)
+    assert {r["body"] for r in rows} == {"square", "two_materials", "cube", "two_materials_cube"}
+    assert {r["dim"] for r in rows} == {2, 3}
