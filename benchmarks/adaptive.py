@@ -14,7 +14,8 @@ level's mesh), and, measured inside ``on_level`` (outside those phases):
   ``nc.refine`` calls it) — against ``nc.refine``'s time on the next level (issue 13: at most 1.2×);
 - with ``--floor``: one linear elasticity solve on the level's mesh (``common.LinearFloor``, CG + GAMG as in
   DOLFINx's demo_elasticity.py, rtol 1e-8), and the level's SNES time over it (issue 13: at most 1.2× on
-  nested levels);
+  nested levels); the same floor with ML instead of GAMG (PETSc 3.18's GAMG sets up slowly on refined
+  meshes), for context;
 - the peak resident memory so far (largest rank).
 """
 import argparse
@@ -52,13 +53,14 @@ def worker(args):
     def on_level(level):
         solution, stats = level.solution, level.solution.stats
         row = {"snes": rank_max(comm, stats.time), "newton": stats.newton_iterations,
-               "krylov": stats.linear_iterations, "preset": stats.preset, "pc_setups": stats.pc_setups,
-               "reason": stats.converged_reason}
+               "krylov": stats.linear_iterations, "preset": stats.preset, "pc_type": stats.pc_type,
+               "pc_setups": stats.pc_setups, "reason": stats.converged_reason}
         if level.marked is not None:
             row["refine_dolfinx_next"] = dolfinx_refine_seconds(solution.domain, level.marked)
         if args.floor:
             floor = LinearFloor(problem, solution.domain)
             row["floor"], row["floor_its"], _ = floor.solve()
+            row["floor_ml"] = floor.solve(amg="ml")[0]
             floor.destroy()
         row["mem_MB"] = rank_max(comm, max_rss_mb())
         extra[level.number] = row
@@ -74,6 +76,7 @@ def worker(args):
         row["estimate_mark_fraction"] = (row["time_estimate"] + row.get("time_mark", 0.0)) / row["time_solve"]
         if "floor" in row:
             row["snes_over_floor"] = row["snes"] / row["floor"]
+            row["snes_over_floor_ml"] = row["snes"] / row["floor_ml"]
         rows.append(row)
     for previous, row in zip(rows, rows[1:]):  # nc.refine made this level from the previous one's marks
         row["refine_dolfinx"] = previous.get("refine_dolfinx_next")
@@ -83,10 +86,11 @@ def worker(args):
         Path(args.json).write_text(json.dumps({"rows": rows, "stop_reason": result.stop_reason}, default=str))
 
 
-COLUMNS = [("level", "level", "{}"), ("dofs", "dofs", "{}"), ("preset", "preset", "{}"),
-           ("newton", "Nwt", "{}"), ("krylov", "Kry", "{}"), ("pc_setups", "PC", "{}"),
+COLUMNS = [("level", "level", "{}"), ("dofs", "dofs", "{}"), ("pc_type", "pc", "{}"),
+           ("newton", "Nwt", "{}"), ("krylov", "Kry", "{}"), ("pc_setups", "set", "{}"),
            ("setup", "setup", "{:.2f}"), ("snes", "solve", "{:.2f}"), ("floor", "floor", "{:.2f}"),
-           ("snes_over_floor", "solve/floor", "{:.2f}"), ("time_estimate", "estim", "{:.2f}"),
+           ("snes_over_floor", "solve/floor", "{:.2f}"), ("floor_ml", "floor ML", "{:.2f}"),
+           ("snes_over_floor_ml", "(ML)", "{:.2f}"), ("time_estimate", "estim", "{:.2f}"),
            ("time_mark", "mark", "{:.3f}"), ("estimate_mark_fraction", "(E+M)/solve", "{:.3f}"),
            ("time_refine", "refine", "{:.2f}"), ("refine_dolfinx", "dolfinx", "{:.2f}"),
            ("refine_over_dolfinx", "ratio", "{:.2f}"), ("mem_MB", "MB/rank", "{:.0f}")]
@@ -126,7 +130,7 @@ def main(argv=None):
     p.add_argument("--max-dofs", default="1e6")
     p.add_argument("--levels", type=int, default=60)
     p.add_argument("--theta", type=float, default=0.5)
-    p.add_argument("--floor", action="store_true", help="a linear floor solve on every level")
+    p.add_argument("--floor", action="store_true", help="a linear floor solve on every level (GAMG and ML)")
     p.add_argument("--csv")
     p.add_argument("--timeout", type=float, default=7200)
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)

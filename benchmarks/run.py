@@ -144,7 +144,8 @@ def measured_solve(problem, domain, comm, jit, kwargs, initial=None):
     stats = solution.stats
     out = {"setup": setup, "solve": solve, "pc_setup": rank_max(comm, pc_setup_seconds() - pc0),
            "newton": stats.newton_iterations, "krylov": stats.linear_iterations, "reason": stats.converged_reason,
-           "preset": stats.preset, "pc_setups": stats.pc_setups, "recoveries": stats.recoveries}
+           "preset": stats.preset, "pc_type": stats.pc_type, "pc_setups": stats.pc_setups,
+           "recoveries": stats.recoveries}
     out["jit"], _, out["compiled"] = jit.since(j0)
     return solution, out
 
@@ -155,10 +156,12 @@ def floor_columns(problem, domain, prefix=""):
     try:
         t, its, residual = floor.solve()
         t_eq, its_eq, _ = floor.solve(1e-10, "unpreconditioned")
+        t_ml, its_ml, _ = floor.solve(amg="ml")
     finally:
         floor.destroy()
     return {f"t_{prefix}linear": t, f"{prefix}linear_its": its, f"{prefix}linear_true_rel_residual": residual,
-            f"t_{prefix}linear_eq": t_eq, f"{prefix}linear_eq_its": its_eq}
+            f"t_{prefix}linear_eq": t_eq, f"{prefix}linear_eq_its": its_eq, f"t_{prefix}linear_ml": t_ml,
+            f"{prefix}linear_ml_its": its_ml}
 
 
 def contact_quantities(solution):
@@ -287,7 +290,7 @@ def worker(args):
 
     first = measured_solve(problem, domain, comm, jit, kwargs)[1] if args.warmup else None
     solution, s = measured_solve(problem, domain, comm, jit, kwargs)
-    row.update({key: s[key] for key in ("newton", "krylov", "reason", "preset", "pc_setups", "recoveries")})
+    row.update({key: s[key] for key in ("newton", "krylov", "reason", "preset", "pc_type", "pc_setups", "recoveries")})
     row.update(t_setup=s["setup"], t_solve=s["solve"], t_pc_setup=s["pc_setup"],
                jit_s=(first or s)["jit"], compiled=(first or s)["compiled"])
     if first:
@@ -324,11 +327,12 @@ def worker(args):
             measured_solve(problem, child, comm, jit, kwargs, initial)
         nested, s2 = measured_solve(problem, child, comm, jit, kwargs, initial)
         row.update(nested_dofs=dofs(child), t_nested_setup=s2["setup"], t_nested_solve=s2["solve"],
-                   nested_newton=s2["newton"], nested_krylov=s2["krylov"], nested_preset=s2["preset"],
+                   nested_newton=s2["newton"], nested_krylov=s2["krylov"], nested_pc_type=s2["pc_type"],
                    nested_pc_setups=s2["pc_setups"])
         row.update(floor_columns(problem, child, "nested_"))
         row["ratio_nested"] = row["t_nested_solve"] / row["t_nested_linear"]
         row["ratio_nested_eq"] = row["t_nested_solve"] / row["t_nested_linear_eq"]
+        row["ratio_nested_ml"] = row["t_nested_solve"] / row["t_nested_linear_ml"]
         _, a2 = adapt_step(nested, comm, False)
         row.update({f"t_nested_{k}": v for k, v in a2.items() if k != "marked"})
         nested_level = row["t_nested_setup"] + row["t_nested_solve"]
@@ -518,12 +522,13 @@ TABLES = {
                    ("mem_peak_MB", "MB/rank", "{:.0f}"), ("mem_kB_per_dof", "kB/dof", "{:.2f}"),
                    ("us_per_dof", "us/dof", "{:.2f}"), ("parallel_speedup", "par", "{:.2f}")],
     "ratios to the linear solve": [
-        ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"), ("preset", "preset", "{}"),
+        ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"), ("pc_type", "pc", "{}"),
         ("t_linear", "lin", "{:.2f}"), ("linear_its", "its", "{}"), ("ratio_linear", "cold/lin", "{:.2f}"),
         ("linear_eq_its", "its=", "{}"), ("ratio_linear_eq", "cold/lin=", "{:.2f}"),
-        ("nested_dofs", "nest dofs", "{}"), ("nested_preset", "preset", "{}"), ("t_nested_solve", "nest", "{:.2f}"),
+        ("nested_dofs", "nest dofs", "{}"), ("nested_pc_type", "pc", "{}"), ("t_nested_solve", "nest", "{:.2f}"),
         ("nested_newton", "Nwt", "{}"), ("nested_krylov", "Kry", "{}"), ("t_nested_linear", "lin", "{:.2f}"),
         ("ratio_nested", "nest/lin", "{:.2f}"), ("ratio_nested_eq", "nest/lin=", "{:.2f}"),
+        ("ratio_nested_ml", "(ML)", "{:.2f}"),
         ("nested_compiled", "nest cmp", "{}"), ("nested_jit_s", "nest jit", "{:.2f}")],
     "estimate, mark, refine (issue 13: estimate + mark <= 5 % of the solve, refine <= 1.2 x DOLFINx's)": [
         ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"), ("marked", "marked", "{}"),
