@@ -4,7 +4,7 @@
     /usr/bin/python3 benchmarks/presets.py cold-nested [--cases block corner square] [--sizes 1 2 3 4]
     /usr/bin/python3 benchmarks/presets.py loops [--cases block corner hertz manufactured] [--max-dofs 2e5]
 
-``cold-nested``: per case and size, in one process, ``NonlinearSolver.solve()`` from u = 0 (cold) and on the
+``cold-nested``: per case and size, in one process, ``nc.solve`` from u = 0 (cold) and on the
 uniformly refined mesh from the transferred solution (nested), with ``preset = direct`` and ``iterative``
 alternately, 3 times; the fastest of each is printed (solve time only, no assembly of K). Sizes: block
 ``mesh.cells = [2k, k]`` with k = 16·2^(s−1); square (the family's, c_n = 1, m_n = 1.5) k×k; corner: s
@@ -26,48 +26,37 @@ PYTHON = "/usr/bin/python3"
 
 
 def build(case, size, comm):
-    from nc_dolfinx import cases, refinement
-    from nc_dolfinx.problem import build_domain, load_problem, problem_from_data
+    import nc_dolfinx as nc
     k = 16 * 2 ** (size - 1)
     if case == "square":
         data = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [k, k], "dirichlet": ["top"],
                          "neumann": ["left", "right"], "contact": ["bottom"]},
                 "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]},
                 "contact": {"c_n": 1.0, "m_n": 1.5}}
-        problem = problem_from_data(data, "square")
+        problem = nc.Problem.from_dict(data, "square")
     else:
-        problem = load_problem(cases.resolve(case), [f"mesh.cells=[{2 * k},{k}]"] if case == "block" else [])
-    domain = build_domain(problem, comm)
+        problem = nc.load_problem(case, [f"mesh.cells=[{2 * k},{k}]"] if case == "block" else [])
+    domain = nc.build_domain(problem, comm)
     if case == "corner":
         for _ in range(size):
-            domain = refinement.refine(domain)
+            domain = nc.refine(domain)
     return problem, domain
 
 
 def solve(problem, domain, preset, initial=None):
-    from dolfinx import fem
-    from nc_dolfinx import forms, refinement
-    from nc_dolfinx.adaptive import dirichlet_bcs
-    from nc_dolfinx.problem import bind
-    from nc_dolfinx.solver import NonlinearSolver, solver_options
-    fields = bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
-    u = refinement.transfer(initial, V) if initial is not None else fem.Function(V)
-    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields),
-                             solver_options(preset), "auto", forms.energy(u, fields))
-    stats = solver.solve()
-    solver.destroy()
-    return u, stats
+    import nc_dolfinx as nc
+    solution = nc.solve(problem.replace({"solver.preset": preset}), domain, initial=initial)
+    return solution.u, solution.stats
 
 
 def cold_nested(args):
+    import nc_dolfinx as nc
     from mpi4py import MPI
-    from nc_dolfinx import refinement
     comm = MPI.COMM_WORLD
     for case in args.cases:
         for size in args.sizes:
             problem, domain = build(case, size, comm)
-            child = refinement.refine(domain)
+            child = nc.refine(domain)
             best = {}
             for _ in range(3):
                 for preset in ("direct", "iterative"):

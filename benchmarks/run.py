@@ -1,29 +1,36 @@
 #!/usr/bin/env python3
-"""Performance harness for nc_dolfinx (issue 5): phases, iterations, memory and baselines per mesh size.
+"""Performance harness for nc_dolfinx (issues 5, 10 and 13): phases, iterations, memory and baselines per mesh size.
 
 One command (1 and 2 ranks, the default sizes, tables on stdout, every column in the CSV; see
 benchmarks/README.md for the columns)::
 
     /usr/bin/python3 benchmarks/run.py --csv benchmarks/results.csv
 
+Problems: ``block`` and ``corner`` (2D, the built-in cases) and ``box`` (3D: the block in 3D, the data of the
+``box`` case, on ``mesh.box`` [0,2]x[0,1]x[0,1] with [2k, k, k] cells of tetrahedra).
+
 The script is a *driver*: for every rank count, problem and size it launches itself as a *worker*
 (``mpirun --allow-run-as-root --oversubscribe -n NP /usr/bin/python3 benchmarks/run.py --worker ...``,
 plain ``/usr/bin/python3`` for one rank), one process per (problem, size), so ``ru_maxrss`` is the peak of
-that size alone. The worker measures, on one mesh and in one process:
+that size alone. The worker uses nc_dolfinx through its public API only (``import nc_dolfinx as nc``) and
+measures, on one mesh and in one process:
 
-- the phases of one level of the adaptive loop: mesh, setup (bind, function space, forms, K/L assembly,
-  SNES), nonlinear solve from u = 0, estimator, Dörfler marking (θ = 0.5), refinement of the marked cells,
-  output (XDMF of the mesh and u);
-- (a) one linear elasticity solve K u = L with the same KSP/PC options and the same matrices
-  (near-nullspace included) as the nonlinear solver;
+- the phases of one level of the adaptive loop: mesh, setup (``nc.solve`` minus its SNES time: binding,
+  function space, forms, K/L assembly, the solver's creation), nonlinear solve from u = 0 (the SNES time,
+  ``Solution.stats.time``), estimator (``nc.estimate``), Dörfler marking (``nc.mark``, θ = 0.5), refinement
+  of the marked cells (``nc.refine``) and, for comparison, DOLFINx's own ``dolfinx.mesh.refine`` of the same
+  marked cells; output (XDMF of the mesh and u);
+- (a) one linear elasticity solve K u = L on the same mesh, written independently in plain DOLFINx
+  (``common.LinearFloor``: CG + GAMG + rigid-body modes as in DOLFINx's demo_elasticity.py, rtol 1e-8), and
+  the same to the nonlinear solve's accuracy (true residual 1e-10 ‖L‖);
 - the nested-iteration level: the adaptive loop's next level (on the refined mesh, the solution
-  transferred as initial guess), and its own linear solve;
-- (b) the plain-dolfinx baseline: ``NonlinearProblem`` + ``NewtonSolver`` on the full UFL residual,
+  transferred with ``nc.transfer`` as initial guess), and its own linear solve;
+- (b) the plain-dolfinx baseline (2D): ``NonlinearProblem`` + ``NewtonSolver`` on the full UFL residual,
   ``preonly`` + LU (PETSc's default LU type, and MUMPS), u = 0, Jacobian refactorised every iteration;
 - the FFCx JIT: time spent in ``dolfinx.jit.ffcx_jit`` and the number of forms actually compiled.
 
 The driver then runs (c) legacy FEniCS 2019 (``benchmarks/legacy_fenics.py``) in its own process on the
-same mesh, and checks that all solvers reach the same elastic energy and contact force.
+same 2D mesh, and checks that all solvers reach the same elastic energy and contact force.
 
 Threads: workers run with OMP_NUM_THREADS = OPENBLAS_NUM_THREADS = 1, so one rank is one core.
 """
@@ -31,38 +38,32 @@ import argparse
 import csv
 import json
 import math
-import os
-import resource
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-PYTHON = "/usr/bin/python3"
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from common import (LinearFloor, barrier_time, current_rss_mb, dofs, dolfinx_refine_seconds,  # noqa: E402
+                    format_table, launch, legacy_available, machine_load, max_rss_mb, pc_setup_seconds,
+                    rank_max, timed_solve)
 
 DEFAULT_SIZES = ["1e4", "1.3e5", "5e5", "2e6"]
 DEFAULT_PARALLEL_SIZES = ["1e4", "1.3e5", "5e5"]  # keeps the default run near 10 minutes on 2 cores
-EW3 = ["snes_ksp_ew=true", "snes_ksp_ew_version=3", "snes_linesearch_type=basic"]
-# Named solver settings (--settings): PETSc options for solver_options(cli_options=...) and the
-# preconditioner matrix. "shipped" measures the preset exactly as nc_dolfinx ships it.
-SETTINGS = {
-    "shipped": ([], None, False),
-    # Eisenstat-Walker v3 (its oversolving safeguard stops the last Newton system at the SNES target),
-    # no line search (bt rejects inexact steps: DIVERGED_LINE_SEARCH), PC from K once per mesh, and the
-    # absolute tolerance snes_atol = snes_rtol * ||L||: a nested level then stops at the accuracy of a cold
-    # start instead of 1e-10 * ||F(u_0)||, which lies below the round-off floor of ||F|| at 2e6 dofs
-    # (DIVERGED_MAX_IT with ||F|| stagnating at ~3e-11).
-    "ew3-bulk": (EW3, "bulk", True),
-    # the same with the PC built once from the first Jacobian J(u_0): K on a cold start, the Jacobian
-    # at the transferred solution on a nested level
-    "ew3-jac-once": (EW3 + ["snes_lag_preconditioner=100"], "jacobian", True),
-}
-DEFAULT_SETTINGS = "shipped"
-PROBLEMS = ("block", "corner")
+DEFAULT_SIZES_3D = ["1e5", "5e5", "2e6"]
+DEFAULT_PARALLEL_SIZES_3D = ["1e5", "5e5"]
+PROBLEMS = ("block", "corner", "box")
+DIMENSION = {"block": 2, "corner": 2, "box": 3}
+
+# The `box` case (issue 10): the block [0,2]x[0,1]x[0,1] clamped at x = 0, its weight and a traction
+# growing along x on top, on a foundation c_n = 2e3 (1 + x)(1 + y/2), m_n = 1.5 along its base.
+BOX = {"mesh": {"box": [[0.0, 0.0, 0.0], [2.0, 1.0, 1.0]], "cells": [8, 4, 4], "dirichlet": ["left"],
+                "neumann": ["top", "right", "front", "back"], "contact": ["bottom"]},
+       "material": {"E": 1.0e3, "nu": 0.3},
+       "loads": {"f": ["0", "0", "-10"], "g": {"top": ["0", "0", "-20*x"]}},
+       "contact": {"c_n": "2.0e3*(1 + x)*(1 + 0.5*y)", "m_n": 1.5}}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -100,164 +101,127 @@ class JitMeter:
         return self.time - snap[0], self.calls - snap[1], self.compiled - snap[2]
 
 
-def pc_setup_time():
-    from petsc4py import PETSc
-    return PETSc.Log.Event("PCSetUp").getPerfInfo()["time"]
-
-
-def max_rss_mb():
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: kB
-
-
-def current_rss_mb():
-    with open("/proc/self/statm") as fh:
-        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2 ** 20
-
-
-def block_overrides(target_dofs):
+def block_cells(target_dofs):
     """block is [0,2]x[0,1] with cells [2k, k]: 2 (2k+1)(k+1) dofs."""
     k = max(2, round((-6 + math.sqrt(36 + 16 * (target_dofs - 2))) / 8))
-    return [f"mesh.cells=[{2 * k},{k}]"]
+    return [2 * k, k]
 
 
-def build_problem_domain(name, target_dofs, comm, extra_overrides=()):
+def box_cells(target_dofs):
+    """box is [0,2]x[0,1]x[0,1] with cells [2k, k, k]: 3 (2k+1)(k+1)² dofs."""
+    k = min(range(1, 400), key=lambda k: abs(3 * (2 * k + 1) * (k + 1) ** 2 - target_dofs))
+    return [2 * k, k, k]
+
+
+def build_problem_domain(name, target_dofs, comm, overrides=()):
     """The problem and a mesh with about ``target_dofs`` dofs (corner: uniform refinements of the .msh)."""
-    from nc_dolfinx import cases, refinement
-    from nc_dolfinx.problem import build_domain, load_problem
-    overrides = list(extra_overrides)
-    if name == "block":
-        overrides = block_overrides(target_dofs) + overrides
-    problem = load_problem(cases.resolve(name), overrides)
-    domain = build_domain(problem, comm)
-    if name != "block":
-        # each uniform refinement multiplies the dofs by about 4: refine to the nearest on a log scale
-        refinements = max(0, round(math.log(target_dofs / (2 * domain.num_vertices()), 4)))
-        for _ in range(refinements):
-            domain = refinement.refine(domain)
+    import nc_dolfinx as nc
+    if name == "box":
+        problem = nc.Problem.from_dict(BOX, "box").replace({"mesh.cells": box_cells(target_dofs),
+                                                             **dict(overrides)})
+        return problem, nc.build_domain(problem, comm)
+    cells = {"mesh.cells": block_cells(target_dofs)} if name == "block" else {}
+    problem = nc.load_problem(name, [f"{k}={v}" for k, v in {**cells, **dict(overrides)}.items()])
+    domain = nc.build_domain(problem, comm)
+    if name == "corner":  # each uniform refinement multiplies the dofs by about 4: the nearest on a log scale
+        for _ in range(max(0, round(math.log(target_dofs / dofs(domain), 4)))):
+            domain = nc.refine(domain)
     return problem, domain
 
 
-def linear_solve(K, load, options, prefix, nullspace=None, extra=None):
-    """One solve K u = L with the KSP/PC options of ``options`` (the snes_* ones dropped) and the
-    near-nullspace of the nonlinear solver's preconditioning matrix."""
-    from petsc4py import PETSc
-    from nc_dolfinx.solver import set_petsc_options
-    if nullspace is not None and nullspace.handle != 0:
-        K.setNearNullSpace(nullspace)
-    set_petsc_options({**{k: v for k, v in options.items() if not k.startswith("snes_")}, **(extra or {})},
-                      prefix)
-    ksp = PETSc.KSP().create(K.getComm())
-    ksp.setOptionsPrefix(prefix)
-    ksp.setOperators(K)
-    ksp.setFromOptions()
-    x = K.createVecRight()
-    pc0 = pc_setup_time()
+def solve_options(args):
+    """The keyword arguments of nc.solve that --preset/--petsc/--pc-matrix give (none: the shipped defaults)."""
+    options = dict(parse_petsc(args.petsc))
+    if args.preset:
+        options["preset"] = args.preset
+    return {"petsc_options": options or None, "preconditioner_matrix": args.pc_matrix}
+
+
+def measured_solve(problem, domain, comm, jit, kwargs, initial=None):
+    """nc.solve, with the set-up/solve split, PC set-up time and JIT: (Solution, dict)."""
+    j0, pc0 = jit.snapshot(), pc_setup_seconds()
+    solution, setup, solve = timed_solve(problem, domain, comm, initial=initial, **kwargs)
+    stats = solution.stats
+    out = {"setup": setup, "solve": solve, "pc_setup": rank_max(comm, pc_setup_seconds() - pc0),
+           "newton": stats.newton_iterations, "krylov": stats.linear_iterations, "reason": stats.converged_reason,
+           "preset": stats.preset, "pc_type": stats.pc_type, "pc_setups": stats.pc_setups,
+           "recoveries": stats.recoveries}
+    out["jit"], _, out["compiled"] = jit.since(j0)
+    return solution, out
+
+
+def floor_columns(problem, domain, prefix=""):
+    """The linear floor on this mesh at its own tolerance and at the nonlinear solve's (true residual)."""
+    floor = LinearFloor(problem, domain)
+    try:
+        t, its, residual = floor.solve()
+        t_eq, its_eq, _ = floor.solve(1e-10, "unpreconditioned")
+        t_ml, its_ml, _ = floor.solve(amg="ml")
+    finally:
+        floor.destroy()
+    return {f"t_{prefix}linear": t, f"{prefix}linear_its": its, f"{prefix}linear_true_rel_residual": residual,
+            f"t_{prefix}linear_eq": t_eq, f"{prefix}linear_eq_its": its_eq, f"t_{prefix}linear_ml": t_ml,
+            f"{prefix}linear_ml_its": its_ml}
+
+
+def contact_quantities(solution):
+    import nc_dolfinx as nc
+    q = nc.solution_quantities(solution.u, solution.fields)
+    return {"energy": q["elastic_energy"], "contact_force": q["contact_resultant"]}
+
+
+def adapt_step(solution, comm, warm):
+    """ESTIMATE, MARK, REFINE on the solution's mesh, each timed (slowest rank), and DOLFINx's own
+    refinement of the same marked cells. ``warm``: an untimed estimate first (as on a later level, where
+    the estimator's forms exist already). Returns (child Domain, dict)."""
+    import nc_dolfinx as nc
+    if warm:
+        nc.estimate(solution.u, solution.fields)
+    t = barrier_time(comm)
+    est = nc.estimate(solution.u, solution.fields)
+    t_estimate = barrier_time(comm) - t
+    marked = nc.mark(est, 0.5, "doerfler")
+    t_mark = barrier_time(comm) - t - t_estimate
+    t = barrier_time(comm)
+    child = nc.refine(solution.domain, marked)
+    t_refine = barrier_time(comm) - t
+    t_dolfinx = dolfinx_refine_seconds(solution.domain, marked)
+    return child, {"estimate": t_estimate, "mark": t_mark, "refine": t_refine, "refine_dolfinx": t_dolfinx,
+                   "marked": comm.allreduce(len(marked))}
+
+
+def write_xdmf(u, comm, directory):
+    from dolfinx import io
+    path = Path(directory) / "solution.xdmf"
     start = time.perf_counter()
-    ksp.solve(load, x)
-    elapsed = time.perf_counter() - start
-    its, reason = ksp.getIterationNumber(), ksp.getConvergedReason()
-    pc_time = pc_setup_time() - pc0
-    r = load.duplicate()
-    K.mult(x, r)
-    r.aypx(-1.0, load)
-    true_rel_residual = r.norm() / load.norm()  # what the nonlinear solve's snes_rtol is measured in
-    for obj in (ksp, x, r):
-        obj.destroy()
-    if reason <= 0:
-        raise RuntimeError(f"linear solve diverged (reason {reason})")
-    return elapsed, its, pc_time, true_rel_residual
-
-
-def our_solve(problem, domain, options, pc_matrix, initial=None, nullspace_on_K=False, jit=None,
-              atol_from_load=False):
-    """Set up and run NonlinearSolver as adaptive.solve_level does, timing setup and solve separately.
-
-    Returns (fields, u, solver, stats dict); the caller destroys the solver."""
-    from dolfinx import fem
-    from nc_dolfinx import forms, refinement
-    from nc_dolfinx.adaptive import dirichlet_bcs
-    from nc_dolfinx.problem import bind
-    from nc_dolfinx.solver import NonlinearSolver, rigid_body_modes
-    out = {}
-    j0 = jit.snapshot()
-    start = time.perf_counter()
-    fields = bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
-    t = time.perf_counter()
-    u = refinement.transfer(initial, V) if initial is not None else fem.Function(V)
-    out["transfer"] = time.perf_counter() - t if initial is not None else 0.0
-    u.name = "displacement"
-    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, dirichlet_bcs(V, fields), options,
-                             pc_matrix, forms.energy(u, fields))
-    pmat = solver.snes.getJacobian()[1]  # the matrix the PC is built from (GAMG reads its near-nullspace)
-    if nullspace_on_K and pmat.getNearNullSpace().handle == 0:  # exploration: give it the rigid-body modes
-        pmat.setNearNullSpace(rigid_body_modes(V))
-    if atol_from_load:  # ||F|| <= snes_rtol * ||L|| is enough, whatever the initial guess
-        rtol, atol, stol, max_it = solver.snes.getTolerances()
-        solver.snes.setTolerances(atol=max(atol, rtol * solver.load.norm()))
-    out["snes_atol"] = solver.snes.getTolerances()[1]
-    out["nullspace"] = pmat.getNearNullSpace()
-    out["pc_has_nullspace"] = out["nullspace"].handle != 0
-    out["setup"] = time.perf_counter() - start
-    out["jit_setup"], _, out["compiled_setup"] = jit.since(j0)
-    pc0 = pc_setup_time()
-    stats = solver.solve()
-    out["solve"] = stats.time
-    out["pc_setup"] = pc_setup_time() - pc0
-    out["newton"], out["krylov"] = stats.newton_iterations, stats.linear_iterations
-    out["reason"] = stats.converged_reason
-    out["pc_mode"] = getattr(stats, "preconditioner_matrix", "") or pc_matrix
-    return fields, u, solver, out
-
-
-def warm_up(solve_here, domain, initial, enabled):
-    """One untimed set-up and solve on ``domain`` before the timed one (None when not ``enabled``).
-
-    The timed solve then excludes what only the first solve in a process pays: JIT cache look-ups,
-    PETSc/MPI first use, and first-touch of fresh memory. The last is large on this VM: its balloon
-    driver hands freed pages back to the host within ~3 s, and touching them again costs 1.1-1.6 s/GB
-    instead of 0.07-0.16 s/GB (see benchmarks/README.md)."""
-    if not enabled:
-        return None
-    _, _, solver, stats = solve_here(domain, initial)
-    solver.destroy()
-    return stats
-
-
-def quantities(u, fields):
-    import ufl
-    from nc_dolfinx import forms
-    from nc_dolfinx.quantities import integrate
-    comm = fields.domain.comm
-    p = forms.contact_pressure(u, fields)
-    return {"energy": integrate(forms.elastic_energy(u, fields), comm),
-            "contact_force": integrate(p * forms.contact_measure(fields), comm),
-            "u_norm": math.sqrt(integrate(ufl.inner(u, u) * ufl.dx, comm))}
+    with io.XDMFFile(comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(u.function_space.mesh)
+        xdmf.write_function(u)
+    return time.perf_counter() - start
 
 
 def plain_dolfinx(problem, domain, solver_type):
     """The baseline a user would write: NonlinearProblem + NewtonSolver, full UFL residual, LU each step."""
     import ufl
+    import nc_dolfinx as nc
     from petsc4py import PETSc
     from dolfinx import fem
     from dolfinx.fem.petsc import NonlinearProblem
     from dolfinx.nls.petsc import NewtonSolver
-    from nc_dolfinx.adaptive import dirichlet_bcs
-    from nc_dolfinx.problem import bind, sigma
     comm = domain.comm
     start = time.perf_counter()
-    fields = bind(problem, domain)
+    fields = nc.bind(problem, domain)
     V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
     u, v = fem.Function(V), ufl.TestFunction(V)
     n = ufl.FacetNormal(domain.mesh)
     un = ufl.dot(u, n) - fields.gap
-    ds_c = fields.ds_of("contact")(metadata={"quadrature_degree": 8})
-    F = (ufl.inner(sigma(u, fields.lmbda, fields.mu), ufl.sym(ufl.grad(v))) * ufl.dx
+    ds_c = fields.ds_of("contact")(metadata={"quadrature_degree": nc.QUADRATURE_DEGREES["contact_form"]})
+    F = (ufl.inner(fields.sigma(u), ufl.sym(ufl.grad(v))) * ufl.dx
          + fields.c_n * ufl.conditional(ufl.gt(un, 0), un, 0) ** fields.m_n * ufl.dot(v, n) * ds_c
          - ufl.inner(fields.f, v) * ufl.dx)
     for group_id, g in fields.g.items():
         F -= ufl.inner(g, v) * fields.ds(group_id)
-    nlp = NonlinearProblem(F, u, bcs=dirichlet_bcs(V, fields))
+    nlp = NonlinearProblem(F, u, bcs=fields.boundary_conditions(V))
     newton = NewtonSolver(comm, nlp)
     newton.convergence_criterion = "residual"
     newton.rtol, newton.atol, newton.max_it = 1e-10, 1e-12, 50
@@ -274,21 +238,12 @@ def plain_dolfinx(problem, domain, solver_type):
     its, converged = newton.solve(u)
     elapsed = time.perf_counter() - t
     used = ksp.getPC().getFactorSolverType()
+    q = nc.solution_quantities(u, fields)
     result = {"setup": setup, "solve": elapsed, "newton": its, "converged": bool(converged), "lu_type": used,
-              **quantities(u, fields)}
+              "energy": q["elastic_energy"], "contact_force": q["contact_resultant"]}
     newton.A.destroy()
     newton.b.destroy()
     return result
-
-
-def write_xdmf(u, comm, directory):
-    from dolfinx import io
-    path = Path(directory) / "solution.xdmf"
-    start = time.perf_counter()
-    with io.XDMFFile(comm, str(path), "w") as xdmf:
-        xdmf.write_mesh(u.function_space.mesh)
-        xdmf.write_function(u)
-    return time.perf_counter() - start
 
 
 def export_mesh(domain, path):
@@ -319,65 +274,42 @@ def worker(args):
     PETSc.Log.begin()
     import logging
     logging.getLogger().addFilter(lambda record: record.levelno >= logging.WARNING)
-    sys.path.insert(0, str(ROOT))
-    from nc_dolfinx import estimator, marking, refinement
-    from nc_dolfinx.solver import solver_options
+    import nc_dolfinx as nc
+    from dolfinx import fem
     comm = MPI.COMM_WORLD
     jit = JitMeter()
     rss_start = current_rss_mb()
-    settings_options, settings_pc, atol_from_load = SETTINGS[args.settings]
-    cli_options = dict(parse_petsc(settings_options + (args.petsc or [])))
-    row = {"problem": args.problem, "np": comm.size}
+    kwargs = solve_options(args)
+    row = {"problem": args.problem, "np": comm.size, "dim": DIMENSION[args.problem],
+           "options": " ".join(args.petsc or []), "load_start": machine_load()}
 
-    t = time.perf_counter()
+    t = barrier_time(comm)
     problem, domain = build_problem_domain(args.problem, float(args.size), comm)
-    row["t_mesh"] = time.perf_counter() - t
-    if args.preset:
-        problem.preset = args.preset
-    pc_matrix = args.pc_matrix or settings_pc or problem.preconditioner_matrix
-    options = solver_options(problem.preset, problem.petsc_options, cli_options)
-    row.update(settings=args.settings, preset=problem.preset,
-               options=" ".join(f"{k}={v}" for k, v in cli_options.items()),
-               dofs=2 * domain.num_vertices(), cells=domain.num_cells())
+    row["t_mesh"] = barrier_time(comm) - t
+    row.update(dofs=dofs(domain), cells=domain.num_cells())
 
-    def solve_here(mesh_domain, initial):
-        return our_solve(problem, mesh_domain, options, pc_matrix, initial, args.nullspace_on_K, jit,
-                         atol_from_load)
-    first = warm_up(solve_here, domain, None, args.warmup)
-    fields, u, solver, s = solve_here(domain, None)
-    row.update(t_setup=s["setup"], t_solve=s["solve"], t_pc_setup=s["pc_setup"], newton=s["newton"],
-               krylov=s["krylov"], jit_s=(first or s)["jit_setup"], compiled=(first or s)["compiled_setup"],
-               pc_mode=s["pc_mode"], pc_has_nullspace=s["pc_has_nullspace"])
+    first = measured_solve(problem, domain, comm, jit, kwargs)[1] if args.warmup else None
+    solution, s = measured_solve(problem, domain, comm, jit, kwargs)
+    row.update({key: s[key] for key in ("newton", "krylov", "reason", "preset", "pc_type", "pc_setups", "recoveries")})
+    row.update(t_setup=s["setup"], t_solve=s["solve"], t_pc_setup=s["pc_setup"],
+               jit_s=(first or s)["jit"], compiled=(first or s)["compiled"])
     if first:
         row.update(t_setup_first=first["setup"], t_solve_first=first["solve"])
-    row["t_linear"], row["linear_its"], row["t_linear_pc_setup"], row["linear_true_rel_residual"] = \
-        linear_solve(solver.K, solver.load, solver.options, "lin_", s["nullspace"])
-    # the same solve to the nonlinear solve's accuracy: true residual ||L - K u|| <= snes_rtol ||L||
-    equal = {"ksp_norm_type": "unpreconditioned", "ksp_rtol": solver.options.get("snes_rtol", 1e-10)}
-    row["t_linear_eq"], row["linear_eq_its"], _, _ = linear_solve(solver.K, solver.load, solver.options, "lineq_",
-                                                                  s["nullspace"], equal)
-    row["snes_atol"] = s["snes_atol"]
-    solver.destroy()
+    row["mem_solve_MB"] = max_rss_mb()
+    row.update(floor_columns(problem, domain))
     row["ratio_linear"] = row["t_solve"] / row["t_linear"]
     row["ratio_linear_eq"] = row["t_solve"] / row["t_linear_eq"]
-    row["mem_solve_MB"] = max_rss_mb()
-    row.update(quantities(u, fields))
+    row.update(contact_quantities(solution))
 
-    if args.warmup:  # as on a later level of the loop: the estimator's forms were created once before
-        estimator.estimate(u, fields)
-    t = time.perf_counter()
-    est = estimator.estimate(u, fields)
-    row["t_estimate"] = time.perf_counter() - t
-    t = time.perf_counter()
-    marked = marking.mark(est.squares, comm, 0.5, "doerfler")
-    row["t_mark"] = time.perf_counter() - t
-    t = time.perf_counter()
-    child = refinement.refine(domain, marked)
-    row["t_refine"] = time.perf_counter() - t
-    row["adapt_fraction"] = (row["t_estimate"] + row["t_mark"] + row["t_refine"]) / (row["t_setup"] + row["t_solve"])
+    child, a = adapt_step(solution, comm, args.warmup)
+    row.update({f"t_{k}": v for k, v in a.items() if k != "marked"}, marked=a["marked"])
+    level_solve = row["t_setup"] + row["t_solve"]  # nc.solve as the adaptive loop calls it
+    row["estimate_mark_fraction"] = (row["t_estimate"] + row["t_mark"]) / level_solve
+    row["refine_over_dolfinx"] = row["t_refine"] / row["t_refine_dolfinx"]
+    row["adapt_fraction"] = (row["t_estimate"] + row["t_mark"] + row["t_refine"]) / level_solve
     outdir = comm.bcast(tempfile.mkdtemp(prefix="nc_bench_") if comm.rank == 0 else None, root=0)
     try:
-        row["t_output"] = write_xdmf(u, comm, outdir)
+        row["t_output"] = write_xdmf(solution.u, comm, outdir)
     finally:
         comm.barrier()
         if comm.rank == 0:
@@ -387,26 +319,29 @@ def worker(args):
 
     if not args.no_nested:
         j0 = jit.snapshot()
-        warm_up(solve_here, child, u, args.warmup)
-        fields2, u2, solver2, s2 = solve_here(child, u)
-        row.update(nested_dofs=2 * child.num_vertices(), t_nested_setup=s2["setup"], t_transfer=s2["transfer"],
-                   t_nested_solve=s2["solve"], nested_newton=s2["newton"], nested_krylov=s2["krylov"],
-                   nested_pc_mode=s2["pc_mode"])
-        row["t_nested_linear"], row["nested_linear_its"], _, _ = linear_solve(
-            solver2.K, solver2.load, solver2.options, "lin_", s2["nullspace"])
-        row["t_nested_linear_eq"], row["nested_linear_eq_its"], _, _ = linear_solve(
-            solver2.K, solver2.load, solver2.options, "lineq_", s2["nullspace"], equal)
-        solver2.destroy()
+        V = fem.VectorFunctionSpace(child.mesh, ("CG", 1))
+        t = barrier_time(comm)
+        initial = nc.transfer(solution.u, V)
+        row["t_transfer"] = barrier_time(comm) - t
+        if args.warmup:
+            measured_solve(problem, child, comm, jit, kwargs, initial)
+        nested, s2 = measured_solve(problem, child, comm, jit, kwargs, initial)
+        row.update(nested_dofs=dofs(child), t_nested_setup=s2["setup"], t_nested_solve=s2["solve"],
+                   nested_newton=s2["newton"], nested_krylov=s2["krylov"], nested_pc_type=s2["pc_type"],
+                   nested_pc_setups=s2["pc_setups"])
+        row.update(floor_columns(problem, child, "nested_"))
         row["ratio_nested"] = row["t_nested_solve"] / row["t_nested_linear"]
         row["ratio_nested_eq"] = row["t_nested_solve"] / row["t_nested_linear_eq"]
-        t = time.perf_counter()
-        est2 = estimator.estimate(u2, fields2)
-        marked2 = marking.mark(est2.squares, comm, 0.5, "doerfler")
-        refinement.refine(child, marked2)
-        row["t_nested_adapt"] = time.perf_counter() - t
-        row["nested_adapt_fraction"] = row["t_nested_adapt"] / (row["t_nested_setup"] + row["t_nested_solve"])
+        row["ratio_nested_ml"] = row["t_nested_solve"] / row["t_nested_linear_ml"]
+        _, a2 = adapt_step(nested, comm, False)
+        row.update({f"t_nested_{k}": v for k, v in a2.items() if k != "marked"})
+        nested_level = row["t_nested_setup"] + row["t_nested_solve"]
+        row["t_nested_adapt"] = a2["estimate"] + a2["mark"] + a2["refine"]
+        row["nested_estimate_mark_fraction"] = (a2["estimate"] + a2["mark"]) / nested_level
+        row["nested_adapt_fraction"] = row["t_nested_adapt"] / nested_level
+        row["nested_refine_over_dolfinx"] = a2["refine"] / a2["refine_dolfinx"]
         row["nested_jit_s"], _, row["nested_compiled"] = jit.since(j0)
-        del fields2, u2, solver2, est2
+        del nested, initial
     row["jit_total_s"], row["jit_calls"], row["compiled_total"] = jit.snapshot()
 
     # Peak memory of our pipeline, before the baselines (whose LU factors would dominate it).
@@ -416,7 +351,7 @@ def worker(args):
     row["mem_kB_per_dof"] = 1024 * (sum(peaks) - sum(starts)) / (row.get("nested_dofs") or row["dofs"])
     row["mem_solve_MB"] = max(comm.allgather(row["mem_solve_MB"]))
 
-    if row["dofs"] <= float(args.baseline_max_dofs):
+    if row["dim"] == 2 and row["dofs"] <= float(args.baseline_max_dofs):  # 3D: no factorisation (fill)
         # PETSc's default LU type: its own LU for a serial (seqaij) matrix, MUMPS for mpiaij (checked
         # with a fresh PC). dolfinx's NewtonSolver presets MUMPS, so the default is set explicitly.
         default_lu = "petsc" if comm.size == 1 else "mumps"
@@ -433,6 +368,7 @@ def worker(args):
             row[f"base_{key}_energy_rdiff"] = abs(b["energy"] - row["energy"]) / abs(row["energy"])
             row[f"base_{key}_force_rdiff"] = abs(b["contact_force"] - row["contact_force"]) / abs(row["contact_force"])
             row[f"speedup_base_{key}"] = row[f"t_base_{key}"] / (row["t_setup"] + row["t_solve"])
+    row["load_end"] = machine_load()
     if comm.rank == 0:
         Path(args.json).write_text(json.dumps(row, indent=1, default=str))
 
@@ -448,19 +384,11 @@ def parse_petsc(items):
 # driver
 # ------------------------------------------------------------------------------------------------
 
-def launch(cmd, nprocs, timeout, extra_env=None):
-    prefix = [] if nprocs == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(nprocs)]
-    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
-               **(extra_env or {}))
-    return subprocess.run(prefix + [PYTHON, *map(str, cmd)], cwd=ROOT, env=env, capture_output=True, text=True,
-                          timeout=timeout)
-
-
 def run_legacy(problem, nprocs, row, mesh_npz, tmp, args):
     out = Path(tmp) / f"legacy_{problem}_{nprocs}_{row['dofs']}.json"
     cmd = [HERE / "legacy_fenics.py", "--problem", problem, "--json", out]
     if problem == "block":
-        cmd += ["--cells", *row["block_cells"]]
+        cmd += ["--cells", *block_cells(float(row["size"]))]
     else:
         cmd += ["--mesh-npz", mesh_npz]
     runs = []
@@ -478,9 +406,19 @@ def run_legacy(problem, nprocs, row, mesh_npz, tmp, args):
             "speedup_legacy": (leg["setup"] + leg["solve"]) / ours}
 
 
-def legacy_available():
-    proc = subprocess.run([PYTHON, "-c", "import dolfin"], capture_output=True)
-    return proc.returncode == 0
+def worker_command(problem, size, out, args):
+    cmd = [Path(__file__).resolve(), "--worker", "--problem", problem, "--size", size, "--json", out,
+           "--baseline-max-dofs", args.baseline_max_dofs]
+    for flag, value in (("--preset", args.preset), ("--pc-matrix", args.pc_matrix)):
+        if value:
+            cmd += [flag, value]
+    if args.no_nested:
+        cmd += ["--no-nested"]
+    if not args.warmup:
+        cmd += ["--no-warmup"]
+    for item in args.petsc or []:
+        cmd += ["--petsc", item]
+    return cmd
 
 
 def driver(args):
@@ -494,24 +432,10 @@ def driver(args):
         for problem, size, nprocs in cases(args):
             out = Path(tmp) / f"{problem}_{nprocs}_{size}.json"
             mesh_npz = Path(tmp) / f"{problem}_{size}.npz"
-            legacy_here = have_legacy and float(size) <= float(args.legacy_max_dofs)
-            cmd = [Path(__file__).resolve(), "--worker", "--problem", problem, "--size", size,
-                   "--json", out, "--baseline-max-dofs", args.baseline_max_dofs]
-            cmd += ["--settings", args.settings]
-            if args.preset:
-                cmd += ["--preset", args.preset]
-            if args.pc_matrix:
-                cmd += ["--pc-matrix", args.pc_matrix]
-            if args.nullspace_on_K:
-                cmd += ["--nullspace-on-K"]
-            if args.no_nested:
-                cmd += ["--no-nested"]
-            if not args.warmup:
-                cmd += ["--no-warmup"]
+            legacy_here = have_legacy and DIMENSION[problem] == 2 and float(size) <= float(args.legacy_max_dofs)
+            cmd = worker_command(problem, size, out, args)
             if legacy_here and problem != "block":
                 cmd += ["--export-mesh", mesh_npz]
-            for item in args.petsc or []:
-                cmd += ["--petsc", item]
             start = time.perf_counter()
             repeats, error = [], None
             for repeat in range(args.repeat):  # baselines in the first process only
@@ -528,16 +452,14 @@ def driver(args):
                 failed = True
                 continue
             row = fastest(repeats)
-            if problem == "block":
-                row["block_cells"] = block_overrides(float(size))[0].split("=")[1].strip("[]").split(",")
+            row["size"] = size
             if legacy_here and row["dofs"] <= float(args.legacy_max_dofs):
                 row.update(run_legacy(problem, nprocs, row, mesh_npz, tmp, args))
-            row.pop("block_cells", None)
             row["wall_process"] = time.perf_counter() - start
             rows.append(row)
             if not args.quiet:
-                print(f"  done {problem} np={nprocs} dofs={row['dofs']} "
-                      f"({row['wall_process']:.0f} s)", file=sys.stderr, flush=True)
+                print(f"  done {problem} np={nprocs} dofs={row['dofs']} ({row['wall_process']:.0f} s, "
+                      f"load {row['load_start']:.2f} -> {row['load_end']:.2f})", file=sys.stderr, flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
         if extra_env:
@@ -559,10 +481,12 @@ def cases(args):
     drifts by tens of per cent over a run)."""
     out = []
     for problem in args.problems:
-        sizes = list(dict.fromkeys(args.sizes + (args.parallel_sizes or [])))
-        for size in sorted(sizes, key=float):
+        three = DIMENSION[problem] == 3
+        serial = args.sizes or (DEFAULT_SIZES_3D if three else DEFAULT_SIZES)
+        parallel = args.parallel_sizes or args.sizes or (DEFAULT_PARALLEL_SIZES_3D if three else DEFAULT_PARALLEL_SIZES)
+        for size in sorted(dict.fromkeys(serial + parallel), key=float):
             for nprocs in args.np:
-                if size in (args.parallel_sizes or args.sizes if nprocs > 1 else args.sizes):
+                if size in (parallel if nprocs > 1 else serial):
                     out.append((problem, size, nprocs))
     return out
 
@@ -593,20 +517,27 @@ TABLES = {
                    ("t_mesh", "mesh", "{:.2f}"), ("t_setup", "setup", "{:.2f}"), ("t_solve", "solve", "{:.2f}"),
                    ("newton", "Nwt", "{}"), ("krylov", "Kry", "{}"), ("t_pc_setup", "pcset", "{:.2f}"),
                    ("t_estimate", "estim", "{:.2f}"), ("t_mark", "mark", "{:.3f}"),
-                   ("t_refine", "refine", "{:.2f}"), ("t_output", "output", "{:.2f}"),
-                   ("jit_s", "jit", "{:.2f}"), ("compiled", "cmp", "{}"),
+                   ("t_refine", "refine", "{:.2f}"), ("t_refine_dolfinx", "dolfinx", "{:.2f}"),
+                   ("t_output", "output", "{:.2f}"), ("jit_s", "jit", "{:.2f}"), ("compiled", "cmp", "{}"),
                    ("mem_peak_MB", "MB/rank", "{:.0f}"), ("mem_kB_per_dof", "kB/dof", "{:.2f}"),
                    ("us_per_dof", "us/dof", "{:.2f}"), ("parallel_speedup", "par", "{:.2f}")],
     "ratios to the linear solve": [
-        ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"),
+        ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"), ("pc_type", "pc", "{}"),
         ("t_linear", "lin", "{:.2f}"), ("linear_its", "its", "{}"), ("ratio_linear", "cold/lin", "{:.2f}"),
         ("linear_eq_its", "its=", "{}"), ("ratio_linear_eq", "cold/lin=", "{:.2f}"),
-        ("nested_dofs", "nest dofs", "{}"), ("t_nested_solve", "nest", "{:.2f}"),
+        ("nested_dofs", "nest dofs", "{}"), ("nested_pc_type", "pc", "{}"), ("t_nested_solve", "nest", "{:.2f}"),
         ("nested_newton", "Nwt", "{}"), ("nested_krylov", "Kry", "{}"), ("t_nested_linear", "lin", "{:.2f}"),
         ("ratio_nested", "nest/lin", "{:.2f}"), ("ratio_nested_eq", "nest/lin=", "{:.2f}"),
-        ("adapt_fraction", "EMR/solve", "{:.2f}"),
-        ("nested_adapt_fraction", "nest EMR/solve", "{:.2f}"), ("nested_compiled", "nest cmp", "{}"),
-        ("nested_jit_s", "nest jit", "{:.2f}")],
+        ("ratio_nested_ml", "(ML)", "{:.2f}"),
+        ("nested_compiled", "nest cmp", "{}"), ("nested_jit_s", "nest jit", "{:.2f}")],
+    "estimate, mark, refine (issue 13: estimate + mark <= 5 % of the solve, refine <= 1.2 x DOLFINx's)": [
+        ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"), ("marked", "marked", "{}"),
+        ("t_estimate", "estim", "{:.3f}"), ("t_mark", "mark", "{:.3f}"),
+        ("estimate_mark_fraction", "(E+M)/solve", "{:.3f}"), ("t_refine", "refine", "{:.3f}"),
+        ("t_refine_dolfinx", "dolfinx", "{:.3f}"), ("refine_over_dolfinx", "ratio", "{:.2f}"),
+        ("nested_dofs", "nest dofs", "{}"), ("nested_estimate_mark_fraction", "(E+M)/solve", "{:.3f}"),
+        ("t_nested_refine", "refine", "{:.3f}"), ("t_nested_refine_dolfinx", "dolfinx", "{:.3f}"),
+        ("nested_refine_over_dolfinx", "ratio", "{:.2f}"), ("adapt_fraction", "EMR/solve", "{:.2f}")],
     "baselines (total time to the solution on the mesh: setup + solve)": [
         ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"),
         ("t_base_lu", "LU", "{:.2f}"), ("base_lu_type", "type", "{}"), ("base_lu_newton", "Nwt", "{}"),
@@ -618,16 +549,6 @@ TABLES = {
         ("legacy_force_rdiff", "dF", "{:.1e}")],
 }
 COLUMNS = sorted({key for table in TABLES.values() for key, _, _ in table})
-
-
-def format_table(rows, columns):
-    header = [h for _, h, _ in columns]
-    body = [[(fmt.format(r[k]) if r.get(k) is not None else "-") for k, _, fmt in columns] for r in rows]
-    widths = [max(len(x) for x in col) for col in zip(header, *body)]
-    lines = ["  ".join(h.rjust(w) for h, w in zip(header, widths)),
-             "  ".join("-" * w for w in widths)]
-    lines += ["  ".join(c.rjust(w) for c, w in zip(line, widths)) for line in body]
-    return "\n".join(lines)
 
 
 def print_tables(rows):
@@ -649,25 +570,24 @@ def write_csv(rows, path):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--np", type=int, nargs="+", default=[1, 2], help="rank counts (default: 1 2)")
-    p.add_argument("--sizes", nargs="+", default=None, help=f"target dofs (default: {' '.join(DEFAULT_SIZES)})")
+    p.add_argument("--sizes", nargs="+", default=None,
+                   help=f"target dofs (default: 2D {' '.join(DEFAULT_SIZES)}, 3D {' '.join(DEFAULT_SIZES_3D)})")
     p.add_argument("--parallel-sizes", nargs="+",
-                   help=f"sizes for np > 1 (default: {' '.join(DEFAULT_PARALLEL_SIZES)}, or --sizes if given)")
+                   help=f"sizes for np > 1 (default: 2D {' '.join(DEFAULT_PARALLEL_SIZES)}, "
+                        f"3D {' '.join(DEFAULT_PARALLEL_SIZES_3D)}, or --sizes if given)")
     p.add_argument("--problems", nargs="+", default=list(PROBLEMS), choices=PROBLEMS)
     p.add_argument("--csv", help="write every measured column to this CSV file")
     p.add_argument("--json-out", help="write the rows as JSON")
     p.add_argument("--smoke", action="store_true", help="tiny sizes, seconds: for the tests")
-    p.add_argument("--preset", choices=("direct", "iterative"), default="iterative",
-                   help="solver preset (default: iterative, the scalable one)")
-    p.add_argument("--settings", choices=list(SETTINGS), default=DEFAULT_SETTINGS,
-                   help=f"named solver settings, extended by --petsc/--pc-matrix (default: {DEFAULT_SETTINGS})")
-    p.add_argument("--pc-matrix", help="NonlinearSolver preconditioner_matrix (default: the problem's)")
+    p.add_argument("--preset", choices=("auto", "direct", "iterative"),
+                   help="solver preset (default: the problem's, i.e. the shipped 'auto')")
+    p.add_argument("--pc-matrix", choices=("auto", "bulk", "jacobian"),
+                   help="nc.solve's preconditioner_matrix (default: the problem's)")
     p.add_argument("--petsc", action="append", metavar="KEY[=VALUE]",
-                   help="PETSc option for solver_options(cli_options=...), without the nc_ prefix")
-    p.add_argument("--nullspace-on-K", action="store_true",
-                   help="exploration: attach the rigid-body near-nullspace to the PC matrix if it has none")
-    p.add_argument("--baseline-max-dofs", default="2e5", help="plain-dolfinx baselines up to this size")
+                   help="a PETSc option for nc.solve(petsc_options=...), without the nc_ prefix")
+    p.add_argument("--baseline-max-dofs", default="2e5", help="plain-dolfinx baselines up to this size (2D)")
     p.add_argument("--baselines", nargs="*", default=["lu", "mumps"], choices=("lu", "mumps"))
-    p.add_argument("--legacy-max-dofs", default="2e5", help="legacy FEniCS up to this size")
+    p.add_argument("--legacy-max-dofs", default="2e5", help="legacy FEniCS up to this size (2D)")
     p.add_argument("--no-legacy", action="store_true")
     p.add_argument("--no-nested", action="store_true", help="skip the nested-iteration level")
     p.add_argument("--repeat", type=int, default=1,
@@ -676,7 +596,7 @@ def main(argv=None):
                    help="time the first solve in each process (default: an identical untimed solve first)")
     p.add_argument("--cold-jit-cache", action="store_true",
                    help="workers use an empty FFCx cache (XDG_CACHE_HOME): shows compilation once per run")
-    p.add_argument("--timeout", type=float, default=1800, help="seconds per worker process")
+    p.add_argument("--timeout", type=float, default=3600, help="seconds per worker process")
     p.add_argument("--quiet", action="store_true")
     # worker mode
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
@@ -699,8 +619,6 @@ def main(argv=None):
             raise
     if args.smoke:
         args.sizes = args.sizes or ["2e3"]
-    if not args.sizes:
-        args.sizes, args.parallel_sizes = DEFAULT_SIZES, args.parallel_sizes or DEFAULT_PARALLEL_SIZES
     return driver(args)
 
 

@@ -2,13 +2,14 @@
 """Solver-settings sweep behind the recommendation in benchmarks/README.md.
 
 Runs ``benchmarks/run.py`` (no baselines, no legacy) for named configurations of PETSc options and prints,
-per configuration: Newton and Krylov iterations, the nonlinear solve, the linear solve K u = L with the same
-options, their ratio, and the same for the nested-iteration level::
+per configuration: Newton and Krylov iterations, the nonlinear solve, the linear floor K u = L (CG + GAMG as
+in DOLFINx's elasticity demo, the same for every configuration), their ratio, and the same for the
+nested-iteration level::
 
-    /usr/bin/python3 benchmarks/sweep.py --problems block --sizes 1.3e5 --np 1 [--configs ew1 ew1-ns ...]
+    /usr/bin/python3 benchmarks/sweep.py --problems block box --sizes 1.3e5 --np 1 [--configs ml aggressive-2 ...]
 
 Each configuration is a list of ``run.py`` arguments (``--petsc KEY=VALUE``, ``--preset``,
-``--pc-matrix``, ``--nullspace-on-K``). Timings are medians over ``--repeat`` runs.
+``--pc-matrix``). Timings are medians over ``--repeat`` runs.
 """
 import argparse
 import json
@@ -19,94 +20,58 @@ import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-EW = ["--petsc", "snes_ksp_ew=true", "--petsc", "snes_linesearch_type=basic"]
-
-
-def ew(version, rtol0=None, extra=()):
-    args = EW + ["--petsc", f"snes_ksp_ew_version={version}"]
-    if rtol0 is not None:
-        args += ["--petsc", f"snes_ksp_ew_rtol0={rtol0}"]
-    return args + list(extra)
-
-
-HYPRE = ["--petsc", "pc_type=hypre", "--petsc", "pc_hypre_type=boomeramg",
-         "--petsc", "pc_hypre_boomeramg_nodal_coarsen=6", "--petsc", "pc_hypre_boomeramg_vec_interp_variant=3",
-         "--petsc", "pc_hypre_boomeramg_strong_threshold=0.5", "--petsc", "pc_hypre_boomeramg_coarsen_type=HMIS",
-         "--petsc", "pc_hypre_boomeramg_interp_type=ext+i", "--petsc", "pc_hypre_boomeramg_agg_nl=1"]
-
-
 def p(*items):
     return [a for item in items for a in ("--petsc", item)]
 
 
-E3 = ew(3)
-BULK = ["--pc-matrix", "bulk"]
+IT = ["--preset", "iterative"]
+HYPRE = p("pc_type=hypre", "pc_hypre_type=boomeramg", "pc_hypre_boomeramg_nodal_coarsen=6",
+          "pc_hypre_boomeramg_vec_interp_variant=3", "pc_hypre_boomeramg_strong_threshold=0.5",
+          "pc_hypre_boomeramg_coarsen_type=HMIS", "pc_hypre_boomeramg_interp_type=ext+i",
+          "pc_hypre_boomeramg_agg_nl=1")
+ML = p("pc_type=ml", "pc_ml_reuse_interpolation=true")
 
 CONFIGS = {
-    # the presets as they are (the problem's preconditioner_matrix, "auto" since the lead's change)
-    "iterative": [],
-    "iterative-bulk": BULK,
+    # the shipped defaults (preset "auto") and the two presets
+    "shipped": [],
+    "iterative": IT,
     "direct": ["--preset", "direct"],
-    # line search alone (exact linear solves)
-    "basic": p("snes_linesearch_type=basic"),
-    "cp": p("snes_linesearch_type=cp"),
-    # Eisenstat-Walker (bt line search with inexact steps can fail: DIVERGED_LINE_SEARCH)
-    "ew1": ew(1, 0.3),
-    "ew2": ew(2, 0.3),
-    "ew3": E3,
-    "ew1-bulk": ew(1, 0.3) + BULK,
-    "ew3-bulk": E3 + BULK,
-    "ew3-r05": E3 + p("snes_ksp_ew_rtol0=0.5"),
-    "ew3-r01": E3 + p("snes_ksp_ew_rtol0=0.1"),
-    "ew3-cp": E3 + p("snes_linesearch_type=cp"),
-    "ew3-unprec": E3 + p("ksp_norm_type=unpreconditioned"),
-    # GAMG tuning (with EW v3)
-    "ew3-thr01": E3 + p("pc_gamg_threshold=0.01"),
-    "ew3-thr02": E3 + p("pc_gamg_threshold=0.02"),
-    "ew3-thr05": E3 + p("pc_gamg_threshold=0.05"),
-    "ew3-sq0": E3 + p("pc_gamg_square_graph=0"),
-    "ew3-bulk-sq0": E3 + BULK + p("pc_gamg_square_graph=0"),
-    "ew3-bulk-mg3": E3 + BULK + p("mg_levels_ksp_max_it=3"),
-    "ew3-bulk-sq0-mg3": E3 + BULK + p("pc_gamg_square_graph=0", "mg_levels_ksp_max_it=3"),
-    "ew3-bulk-thr02": E3 + BULK + p("pc_gamg_threshold=0.02"),
-    "ew3-bulk-esteig": E3 + BULK + p("pc_gamg_esteig_ksp_type=cg", "pc_gamg_esteig_ksp_max_it=5"),
-    "ew3-sq10": E3 + p("pc_gamg_square_graph=10"),
-    "ew3-mg1": E3 + p("mg_levels_ksp_max_it=1"),
-    "ew3-mg3": E3 + p("mg_levels_ksp_max_it=3"),
-    "ew3-sor": E3 + p("mg_levels_pc_type=sor"),
-    "ew3-nsm0": E3 + p("pc_gamg_agg_nsmooths=0"),
-    "ew3-esteig": E3 + p("pc_gamg_esteig_ksp_type=cg", "pc_gamg_esteig_ksp_max_it=5"),
-    "ew3-coarse": E3 + p("pc_gamg_coarse_eq_limit=1000"),
-    # hypre BoomerAMG with nodal coarsening
-    "ew3-hypre": E3 + HYPRE,
-    "hypre": HYPRE,
-    # direct preset variants
-    "direct-ew3": ["--preset", "direct"] + E3,
-    "direct-ew3-icntl7-5": ["--preset", "direct"] + E3 + p("mat_mumps_icntl_7=5"),
-    "direct-ew3-icntl7-0": ["--preset", "direct"] + E3 + p("mat_mumps_icntl_7=0"),
-    "direct-ew3-petsc": ["--preset", "direct"] + E3 + p("pc_factor_mat_solver_type=petsc",
-                                                       "pc_factor_mat_ordering_type=nd"),
-    # preconditioner from the Jacobian (rebuilt every Newton step)
-    "ew3-jac": E3 + ["--pc-matrix", "jacobian"],
-    "ew3-jac-reuse": E3 + ["--pc-matrix", "jacobian"] + p("pc_gamg_reuse_interpolation=true"),
-    # ... built once from J(u_0) (the transferred solution on a nested level, K on a cold start)
-    "ew3-jac-lag": E3 + ["--pc-matrix", "jacobian"] + p("snes_lag_preconditioner=-1"),
-    "ew3-jac-once": E3 + ["--pc-matrix", "jacobian"] + p("snes_lag_preconditioner=100"),
-    "ew3-jac-once-sq0": E3 + ["--pc-matrix", "jacobian"] + p("snes_lag_preconditioner=100",
-                                                             "pc_gamg_square_graph=0"),
-    "ew3-jac-once-mg3": E3 + ["--pc-matrix", "jacobian"] + p("snes_lag_preconditioner=100",
-                                                             "mg_levels_ksp_max_it=3"),
-    "tr": BULK + p("snes_type=newtontr"),
-    "ew3-tr": ew(3) + BULK + p("snes_type=newtontr"),
-    "ew3-fischer": E3 + BULK + p("ksp_guess_type=fischer", "ksp_guess_fischer_model=1,10"),
-    "ew3-fischer2": E3 + BULK + p("ksp_guess_type=fischer", "ksp_guess_fischer_model=2,10"),
-    "ew3-jac-lag3-reuse": E3 + ["--pc-matrix", "jacobian"] + p("snes_lag_preconditioner=3",
-                                                               "pc_gamg_reuse_interpolation=true"),
-    "ew3-jac-lag5-reuse": E3 + ["--pc-matrix", "jacobian"] + p("snes_lag_preconditioner=5",
-                                                               "pc_gamg_reuse_interpolation=true"),
+    # Eisenstat-Walker (the iterative preset: version 3, rtol0 0.03)
+    "ew1": IT + p("snes_ksp_ew_version=1"),
+    "ew2": IT + p("snes_ksp_ew_version=2"),
+    "ew-rtol0-0.1": IT + p("snes_ksp_ew_rtol0=0.1"),
+    "ew-rtolmax-0.1": IT + p("snes_ksp_ew_rtolmax=0.1"),
+    "ew-rtolmax-0.5": IT + p("snes_ksp_ew_rtolmax=0.5"),
+    "no-ew": IT + p("snes_ksp_ew=false"),
+    # GAMG tuning
+    "thr-0.01": IT + p("pc_gamg_threshold=0.01"),
+    "thr-0.05": IT + p("pc_gamg_threshold=0.05"),
+    "square-0": IT + p("pc_gamg_square_graph=0"),
+    "aggressive-2": IT + p("pc_gamg_aggressive_coarsening=2"),
+    "aggressive-10": IT + p("pc_gamg_aggressive_coarsening=10"),
+    "coarse-1000": IT + p("pc_gamg_coarse_eq_limit=1000"),
+    "coarse-5000": IT + p("pc_gamg_coarse_eq_limit=5000"),
+    "repartition": IT + p("pc_gamg_repartition=true"),
+    "nsmooths-0": IT + p("pc_gamg_agg_nsmooths=0"),
+    "mg-its-3": IT + p("mg_levels_ksp_max_it=3"),
+    "esteig-20": IT + p("mg_levels_ksp_chebyshev_esteig_steps=20"),
+    "sa-esteig": IT + p("pc_gamg_use_sa_esteig=true", "pc_gamg_reuse_interpolation=false"),
+    "no-reuse": IT + p("pc_gamg_reuse_interpolation=false"),
+    # other AMG
+    "ml": IT + ML,
+    "hypre": IT + HYPRE,
+    # the preconditioner's refresh
+    "misfit-1": IT + p("pc_refresh_misfit=1"),
+    "misfit-0.1": IT + p("pc_refresh_misfit=0.1"),
+    "growth-2": IT + p("pc_refresh_growth=2"),
+    "bulk": IT + ["--pc-matrix", "bulk"],
+    "jacobian": IT + ["--pc-matrix", "jacobian"],
+    # the line search
+    "no-line-min": IT + p("line_minimisation=false"),
+    "bt": IT + p("line_minimisation=false", "snes_linesearch_type=bt"),
 }
 
-KEYS = [("dofs", "{}"), ("pc_mode", "{}"), ("nested_pc_mode", "{}"), ("newton", "{}"), ("krylov", "{}"),
+KEYS = [("dofs", "{}"), ("preset", "{}"), ("nested_preset", "{}"), ("newton", "{}"), ("krylov", "{}"),
         ("t_setup", "{:.2f}"), ("t_solve", "{:.2f}"),
         ("t_pc_setup", "{:.2f}"), ("t_linear", "{:.2f}"), ("linear_its", "{}"), ("ratio_linear", "{:.2f}"),
         ("nested_newton", "{}"), ("nested_krylov", "{}"), ("t_nested_solve", "{:.2f}"),
@@ -118,7 +83,7 @@ def run(config, problem, size, nprocs, no_nested):
         out = Path(tmp) / "rows.json"
         cmd = [sys.executable if sys.executable.startswith("/usr/bin") else "/usr/bin/python3",
                str(HERE / "run.py"), "--np", str(nprocs), "--sizes", size, "--problems", problem, "--baselines",
-               "--no-legacy", "--quiet", "--json-out", str(out), "--settings", "shipped", *CONFIGS[config]]
+               "--no-legacy", "--quiet", "--json-out", str(out), *CONFIGS[config]]
         if no_nested:
             cmd.append("--no-nested")
         proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -130,7 +95,7 @@ def run(config, problem, size, nprocs, no_nested):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--configs", nargs="+", default=list(CONFIGS), choices=list(CONFIGS))
-    ap.add_argument("--problems", nargs="+", default=["block"])
+    ap.add_argument("--problems", nargs="+", default=["block"], choices=("block", "corner", "box"))
     ap.add_argument("--sizes", nargs="+", default=["1.3e5"])
     ap.add_argument("--np", type=int, nargs="+", default=[1])
     ap.add_argument("--repeat", type=int, default=1)

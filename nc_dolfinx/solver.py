@@ -69,16 +69,18 @@ ATOL_OF_LOAD = 1e-10
 # near-nullspace (on the matrices, see NonlinearSolver), the SPD flag, Chebyshev/Jacobi smoothers with
 # CG-based eigenvalue estimates (CG is the right estimator for an SPD operator and needs fewer steps than
 # GMRES), and the interpolation kept when the preconditioning matrix is refreshed within a level (only
-# the Galerkin products and smoothers are redone).
-AMG = {"pc_type": "gamg", "pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1,
-       "mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi",
-       "mg_levels_esteig_ksp_type": "cg", "mg_levels_ksp_chebyshev_esteig_steps": 10,
-       "pc_gamg_reuse_interpolation": True,
-       # GAMG would hand the smoothers the eigenvalue estimates of its prolongator smoothing, which a
-       # refresh with reused interpolation does not redo: after K -> K + 1e4 M_Γ CG then ran 10000
-       # iterations (or stopped on an indefinite PC); with Chebyshev's own CG estimates 29 (fresh set-up:
-       # 22, at 3x the set-up time).
-       "pc_gamg_use_sa_esteig": False}
+# the Galerkin products and smoothers are redone). Two implementations, both read by PCMG's smoothers
+# (the mg_levels_ options): PETSc's GAMG and Trilinos ML (``pc_type ml``); see choose_amg.
+SMOOTHERS = {"mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi",
+             "mg_levels_esteig_ksp_type": "cg", "mg_levels_ksp_chebyshev_esteig_steps": 10}
+GAMG = {"pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "pc_gamg_reuse_interpolation": True,
+        # GAMG would hand the smoothers the eigenvalue estimates of its prolongator smoothing, which a
+        # refresh with reused interpolation does not redo: after K -> K + 1e4 M_Γ CG then ran 10000
+        # iterations (or stopped on an indefinite PC); with Chebyshev's own CG estimates 29 (fresh set-up:
+        # 22, at 3x the set-up time).
+        "pc_gamg_use_sa_esteig": False}
+ML = {"pc_ml_reuse_interpolation": True}  # ML reads the rigid-body modes from the matrix (pc_ml_nullspace auto)
+AMG = {"pc_type": "gamg", **SMOOTHERS, **GAMG, **ML}
 # Both presets run CG on the Jacobian J = K + j_n'(u) (SPD); the preconditioner is built from J at the
 # initial guess and refreshed when it no longer fits (see NonlinearSolver).
 PRESETS = {
@@ -90,6 +92,7 @@ PRESETS = {
     # The first Krylov solve to 3e-2 (rtol0; PETSc's default 0.3): on a cold start the first step is
     # nearly the answer when the Jacobian already sees the foundation (m_n = 1, see closed_jacobian),
     # and a loose one cost 2-4 more Newton steps on the stiff members of benchmarks/family.py.
+    # pc_type (gamg or ml) is chosen by choose_amg unless given.
     "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, **AMG, "snes_ksp_ew": True, "snes_ksp_ew_version": 3,
                   "snes_ksp_ew_rtol0": 0.03},
 }
@@ -110,7 +113,8 @@ def choose_preset(dim, dofs, warm_start):
     """The linear strategy of ``preset = "auto"``, from what is known before solving (measured in
     benchmarks/README.md, "auto"):
 
-    - 3D: GAMG — a factorisation of the whole stiffness costs far more time and memory there.
+    - 3D: CG + AMG (see choose_amg) — a factorisation of the whole stiffness costs far more time and
+      memory there.
     - 2D, up to COLD_DIRECT_MAX_DOFS: MUMPS Cholesky; both take < 0.05 s there, and exact Newton steps
       make the Newton counts independent of the partition.
     - 2D with a warm start (the adaptive loop's nested levels), up to WARM_DIRECT_MAX_DOFS: MUMPS
@@ -118,7 +122,7 @@ def choose_preset(dim, dofs, warm_start):
       set up on refined meshes than on generated ones of the same size (the square at 1.3e5: 0.8 s
       against 0.22 s), and the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct
       (corner: within 10 %).
-    - otherwise (2D cold starts, large meshes): CG + GAMG, 1.4–2.8x faster than the factorisation on a
+    - otherwise (2D cold starts, large meshes): CG + AMG, 1.4–2.8x faster than the factorisation on a
       cold start from 1e4 dofs on (block, corner, the family square).
     The number of ranks did not change these choices in the measurements.
     """
@@ -131,14 +135,49 @@ COLD_DIRECT_MAX_DOFS = 10_000
 WARM_DIRECT_MAX_DOFS = 1_000_000
 
 
+def choose_amg(warm_start):
+    """The AMG of the iterative preset: ML on a warm start (a nested level of the adaptive loop: a
+    Plaza-refined mesh), GAMG otherwise (GAMG if ML is not installed).
+
+    PETSc 3.18's GAMG picks its aggregates greedily in order of node degree, which on Plaza-refined meshes
+    (whose vertices come in classes of different degree) leaves 3x as many aggregates and an operator
+    complexity of 3 instead of 1.3: its set-up took 9.5 s on the unit cube refined to 107,811 dofs against
+    2.5 s on the generated mesh of the same size, where ML took 1.1 s (refined 2D square at 132,098 dofs:
+    set-up and solve 2.2 s with GAMG, 0.9 s with ML).
+    On generated meshes the two are within the noise in 3D and GAMG is 5-15 % faster in 2D
+    (benchmarks/README.md)."""
+    return "ml" if warm_start and _pc_available("ml") else "gamg"
+
+
+_AVAILABLE = {}
+
+
+def _pc_available(pc_type):
+    """Whether this PETSc build has the preconditioner ``pc_type`` (ML needs Trilinos ML)."""
+    if pc_type not in _AVAILABLE:
+        pc = PETSc.PC().create(PETSc.COMM_SELF)
+        try:
+            pc.setType(pc_type)
+            _AVAILABLE[pc_type] = True
+        except PETSc.Error:
+            _AVAILABLE[pc_type] = False
+        finally:
+            pc.destroy()
+    return _AVAILABLE[pc_type]
+
+
 def resolve_options(options, dim, dofs, warm_start):
-    """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved."""
+    """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved
+    (the preset by choose_preset, the iterative preset's AMG by choose_amg)."""
     user = {k.lstrip("-"): v for k, v in options.items()}
     preset = str(user.pop("preset", "auto"))
     if preset not in PRESET_NAMES:
         raise InputError(f"solver preset must be one of {', '.join(PRESET_NAMES)}, got '{preset}'")
     name = choose_preset(dim, dofs, warm_start) if preset == "auto" else preset
-    return name, {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name], **user}
+    resolved = {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name]}
+    if name == "iterative":
+        resolved["pc_type"] = choose_amg(warm_start)
+    return name, {**resolved, **user}
 
 
 def _flag(value):
@@ -196,6 +235,7 @@ class SolveStats:
     preset: str = ""                # the preset in force ("auto" resolved)
     pc_setups: int = 0              # times the preconditioning matrix was (re)built
     recoveries: str = ""            # fallbacks taken after a failed SNES solve, e.g. "refresh,continuation"
+    pc_type: str = ""               # the preconditioner in force (cholesky, gamg, ml, or the user's)
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
@@ -299,8 +339,7 @@ class NonlinearSolver:
         self.snes.setFunction(self._residual, self.b)
         self.snes.setJacobian(self._jacobian, self.A, self.P)
         self.snes.setObjective(self._objective)
-        if _flag(self.options["line_minimisation"]):
-            self.snes.setLineSearchPreCheck(self._line_minimisation)
+        self.snes.setLineSearchPreCheck(self._precheck)
         self.snes.setFromOptions()
         ksp = self.snes.getKSP()
         ksp.setFromOptions()
@@ -337,6 +376,21 @@ class NonlinearSolver:
         self.K.mult(x, self.work)
         quadratic = 0.5 * x.dot(self.work) - self.load_factor * self.load.dot(x)
         return quadratic + self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
+
+    def _precheck(self, x, y):
+        """Before SNES steps to x − λy: the step's Dirichlet entries set to zero, then (``line_minimisation``)
+        λ chosen by :meth:`_line_minimisation`.
+
+        J's Dirichlet rows are identity rows with F_D = x_D = 0, so the exact step has y_D = 0; a Krylov
+        iterate does not (AMG aggregates mix constrained and free dofs: |y_D| reached 2 % of |y| on the
+        3D box), and a step with y_D ≠ 0 moves the clamped dofs. Where Γ_D meets Γ_C, Π then depends on
+        x_D while F_D does not carry j_n's part (its Dirichlet rows are x_D), so F is no longer ∇Π along y:
+        the line search stalled at ‖F‖ ≈ 1e-4 ‖F_0‖ on the 3D box (65 Newton steps and three fallbacks).
+        Zeroing y_D keeps x_D = 0 and leaves F·y (F_D = 0) unchanged: y stays a descent direction of Π."""
+        fem_petsc.set_bc(y, self.bcs)
+        if _flag(self.options["line_minimisation"]):
+            self._line_minimisation(x, y)
+        return True
 
     def _line_minimisation(self, x, y):
         """The line search: scale the Newton step y (SNES steps to x − λy) to a minimiser λ ∈ (0, 1] of Π.
@@ -585,6 +639,7 @@ class NonlinearSolver:
         stats.preconditioner_matrix = self.configured_mode  # (a fallback's mode is not carried to the next level)
         stats.preset = self.preset
         stats.pc_setups = self.pc_setups
+        stats.pc_type = self.snes.getKSP().getPC().getType()
         stats.recoveries = ",".join(recoveries)
         return stats
 

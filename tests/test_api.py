@@ -41,7 +41,7 @@ FRONT_END = [ROOT / PACKAGE / "cli.py", ROOT / PACKAGE / "run.py"]
 # Files their owners are rewriting onto the public API (issue 12): while they still use private parts,
 # the test reports them as an expected failure (with the list) instead of failing; once a file is clean
 # its test passes, and its entry here can go.
-PENDING = {"benchmarks/run.py": "the solver engineer (issue 13)"}
+PENDING = {}
 
 # A docstring cites what it implements: the paper (equation, definition, section, remark, theorem, lemma)
 # or the named method. Utilities (files, meshes as containers, logging, errors) need no citation.

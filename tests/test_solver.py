@@ -155,6 +155,23 @@ def test_load_stepping_reaches_the_same_solution(reference):
     assert stats.newton_iterations >= 4
 
 
+def test_a_step_never_moves_the_clamped_dofs():
+    """The 3D box (Γ_D meets Γ_C along an edge) with CG + AMG: a Krylov step has entries on the clamped
+    dofs, and taking them made F differ from ∇Π along the step where Γ_D meets Γ_C (the line search
+    stalled: 65 Newton steps and three fallbacks). The step is now zeroed there: no fallback, few steps,
+    the direct preset's solution."""
+    data = {"mesh": {"box": [[0, 0, 0], [2, 1, 1]], "cells": [12, 6, 6], "dirichlet": ["left"],
+                     "neumann": ["top", "right", "front", "back"], "contact": ["bottom"]},
+            "material": {"E": 1e3, "nu": 0.3}, "loads": {"f": ["0", "0", "-10"], "g": {"top": ["0", "0", "-20*x"]}},
+            "contact": {"c_n": "2e3*(1 + x)*(1 + 0.5*y)", "m_n": 1.5}}
+    problem = nc.Problem.from_dict(data, "box")
+    domain = nc.build_domain(problem, MPI.COMM_WORLD)
+    iterative = nc.solve(problem.replace({"solver.preset": "iterative"}), domain)
+    direct = nc.solve(problem.replace({"solver.preset": "direct"}), domain)
+    assert iterative.stats.recoveries == "" and iterative.stats.newton_iterations <= 12
+    assert close(iterative.u.x.array, direct.u.x.array)
+
+
 def test_auto_picks_by_dimension_size_and_initial_guess():
     assert choose_preset(3, 1000, warm_start=True) == "iterative"  # never a 3D factorisation by default
     assert choose_preset(2, 5000, warm_start=False) == "direct"
@@ -166,6 +183,10 @@ def test_auto_picks_by_dimension_size_and_initial_guess():
                                                    {"pc_gamg_threshold": 0.02}), 2, 100, False)
     assert name == "iterative" and options["ksp_rtol"] == 1e-6 and options["pc_gamg_threshold"] == 0.02
     assert options["pc_type"] == "gamg" and options["snes_linesearch_type"] == "basic"
+    # AMG: GAMG on a cold start, ML on a warm one (a refined mesh); the user's pc_type wins
+    assert resolve_options({}, 3, 10 ** 5, True)[1]["pc_type"] == "ml"
+    assert resolve_options({}, 3, 10 ** 5, False)[1]["pc_type"] == "gamg"
+    assert resolve_options({"pc_type": "hypre"}, 3, 10 ** 5, True)[1]["pc_type"] == "hypre"
     with pytest.raises(InputError):
         resolve_options({"preset": "fast"}, 2, 100, False)
 
@@ -241,13 +262,14 @@ def test_petsc_options_from_the_command_line_and_the_problem_file(tmp_path):
 
 
 def test_benchmark_family_runs_and_every_member_converges(tmp_path):
-    """benchmarks/family.py end to end on 16x16 meshes (no timing is checked here): every member of the
-    family converges with no options, on 1 rank."""
+    """benchmarks/family.py end to end on 16x16 squares and 4x4x4 cubes (no timing is checked here):
+    every member of the family, 2D and 3D, converges with no options and no fallback, on 1 rank."""
     import json
     from conftest import run
     proc = run([ROOT / "benchmarks" / "family.py", "--smoke", "--np", "1", "--no-nested",
                 "--json-out", tmp_path / "family.json"], timeout=600)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     rows = json.loads((tmp_path / "family.json").read_text())
-    assert len(rows) >= 14 and all(r["reason"].startswith("CONVERGED") for r in rows)
-    assert {r["body"] for r in rows} == {"square", "two_materials"}
+    assert len(rows) >= 28 and all(r["reason"].startswith("CONVERGED") and not r["recoveries"] for r in rows)
+    assert {r["body"] for r in rows} == {"square", "two_materials", "cube", "two_materials_cube"}
+    assert {r["dim"] for r in rows} == {2, 3}

@@ -1,0 +1,216 @@
+"""What the benchmark scripts share: process launching, clocks, the linear floor, uniform refinement, tables.
+
+The **linear floor** is written here independently of nc_dolfinx's solver, in plain DOLFINx/petsc4py, as
+DOLFINx's ``demo_elasticity.py`` (v0.5) solves linear elasticity: K assembled from a(u, v) = (σ(u), ε(v)),
+the rigid-body modes as GAMG's near-nullspace, the SPD flag, CG + GAMG with Chebyshev/Jacobi smoothers and
+CG eigenvalue estimates (20 steps); the tolerance ``rtol`` 1e-8 in CG's default (preconditioned) norm.
+Only the problem's data come from nc_dolfinx (``nc.bind``: the material, loads and Dirichlet conditions),
+so the floor solves the same elasticity problem the nonlinear solver solves without the foundation.
+"""
+import math
+import os
+import subprocess
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+PYTHON = "/usr/bin/python3"
+FLOOR_RTOL = 1e-8
+
+# DOLFINx's demo_elasticity.py (v0.5) options, with the tolerance of the floor; the same with Trilinos ML
+# instead of GAMG ("ml"), for context on refined meshes, where PETSc 3.18's GAMG sets up slowly.
+FLOOR_OPTIONS = {"ksp_type": "cg", "pc_type": "gamg", "mg_levels_ksp_type": "chebyshev",
+                 "mg_levels_pc_type": "jacobi", "mg_levels_esteig_ksp_type": "cg",
+                 "mg_levels_ksp_chebyshev_esteig_steps": 20}
+FLOOR_AMG = {"gamg": FLOOR_OPTIONS, "ml": {**FLOOR_OPTIONS, "pc_type": "ml"}}
+
+
+# --- processes ------------------------------------------------------------------------------------
+
+def launch(cmd, nprocs, timeout, extra_env=None):
+    """Run ``cmd`` (a script and its arguments) with /usr/bin/python3 on ``nprocs`` ranks, one thread each."""
+    prefix = [] if nprocs == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(nprocs)]
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
+               **(extra_env or {}))
+    return subprocess.run(prefix + [PYTHON, *map(str, cmd)], cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def legacy_available():
+    """Whether legacy FEniCS 2019 (Debian's python3-dolfin) is importable."""
+    return subprocess.run([PYTHON, "-c", "import dolfin"], capture_output=True).returncode == 0
+
+
+def machine_load():
+    """The 1-minute load average (what the timed tables record next to their figures)."""
+    return os.getloadavg()[0]
+
+
+# --- clocks ---------------------------------------------------------------------------------------
+
+def barrier_time(comm):
+    comm.barrier()
+    return time.perf_counter()
+
+
+def rank_max(comm, value):
+    from mpi4py import MPI
+    return comm.allreduce(value, op=MPI.MAX)
+
+
+def max_rss_mb():
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: kB
+
+
+def current_rss_mb():
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2 ** 20
+
+
+def pc_setup_seconds():
+    """PETSc's accumulated PCSetUp time in this process (PETSc.Log.begin() must have been called)."""
+    from petsc4py import PETSc
+    return PETSc.Log.Event("PCSetUp").getPerfInfo()["time"]
+
+
+def timed_solve(problem, domain, comm, **kwargs):
+    """``nc.solve`` timed between barriers: (Solution, setup s, solve s). ``solve`` is the SNES time of
+    ``Solution.stats.time`` (the slowest rank), ``setup`` the rest of the call (binding, forms, K and L,
+    the transfer of ``initial`` from the parent mesh, the solver's creation)."""
+    import nc_dolfinx as nc
+    start = barrier_time(comm)
+    solution = nc.solve(problem, domain, **kwargs)
+    total = barrier_time(comm) - start
+    solve = rank_max(comm, solution.stats.time)
+    return solution, total - solve, solve
+
+
+# --- the linear floor (independent of nc_dolfinx's solver) -------------------------------------------
+
+def rigid_body_modes(V):
+    """The d translations and d(d−1)/2 rotations of the vector P1 space V, orthonormalised (as
+    demo_elasticity.py's build_nullspace, for any dimension)."""
+    import dolfinx
+    from petsc4py import PETSc
+    index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+    x = V.tabulate_dof_coordinates()[:index_map.size_local, :bs]
+    planes = [(i, j) for i in range(bs) for j in range(i + 1, bs)]
+    basis = [dolfinx.la.create_petsc_vector(index_map, bs) for _ in range(bs + len(planes))]
+    with_arrays = [b.array.reshape(-1, bs) for b in basis]
+    for a in with_arrays:
+        a[:] = 0.0
+    for k in range(bs):
+        with_arrays[k][:, k] = 1.0
+    for a, (i, j) in zip(with_arrays[bs:], planes):
+        a[:, i], a[:, j] = -x[:, j], x[:, i]
+    dolfinx.la.orthonormalize(basis)
+    return PETSc.NullSpace().create(vectors=basis, comm=V.mesh.comm)
+
+
+class LinearFloor:
+    """One linear elasticity solve K u = L on the problem's mesh (the nonlinear problem without its
+    foundation), assembled once; :meth:`solve` times the PC set-up and the CG solve (not the assembly)."""
+
+    def __init__(self, problem, domain):
+        import ufl
+        import nc_dolfinx as nc
+        from dolfinx import fem
+        from dolfinx.fem import petsc as fem_petsc
+        from petsc4py import PETSc
+        self.comm = domain.comm
+        fields = nc.bind(problem, domain)
+        V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+        u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+        a = ufl.inner(fields.sigma(u), ufl.sym(ufl.grad(v))) * ufl.dx
+        L = ufl.inner(fields.f, v) * ufl.dx
+        for group_id, g in fields.g.items():
+            L += ufl.inner(g, v) * fields.ds(group_id)
+        bcs = fields.boundary_conditions(V)
+        a = fem.form(a)
+        self.K = fem_petsc.assemble_matrix(a, bcs=bcs)
+        self.K.assemble()
+        self.L = fem_petsc.assemble_vector(fem.form(L))
+        fem_petsc.apply_lifting(self.L, [a], bcs=[bcs])
+        self.L.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fem_petsc.set_bc(self.L, bcs)
+        self.K.setNearNullSpace(rigid_body_modes(V))
+        self.K.setOption(PETSc.Mat.Option.SPD, True)
+
+    def solve(self, rtol=FLOOR_RTOL, norm="preconditioned", amg="gamg"):
+        """(wall s, CG iterations, true residual ‖L − Ku‖/‖L‖) of a fresh KSP: PC set-up + solve."""
+        from petsc4py import PETSc
+        prefix = f"floor_{amg}_"
+        options = PETSc.Options(prefix)
+        for key, value in {**FLOOR_AMG[amg], "ksp_rtol": rtol, "ksp_norm_type": norm}.items():
+            options[key] = value
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOptionsPrefix(prefix)
+        ksp.setOperators(self.K)
+        ksp.setFromOptions()
+        x = self.K.createVecRight()
+        start = barrier_time(self.comm)
+        ksp.solve(self.L, x)
+        wall = barrier_time(self.comm) - start
+        its, reason = ksp.getIterationNumber(), ksp.getConvergedReason()
+        r = self.L.duplicate()
+        self.K.mult(x, r)
+        r.aypx(-1.0, self.L)
+        residual = r.norm() / self.L.norm()
+        for obj in (ksp, x, r):
+            obj.destroy()
+        if reason <= 0:
+            raise RuntimeError(f"the linear floor did not converge (KSP reason {reason})")
+        return wall, its, residual
+
+    def destroy(self):
+        self.K.destroy()
+        self.L.destroy()
+
+
+# --- meshes ---------------------------------------------------------------------------------------
+
+def owned_cells(domain):
+    import numpy as np
+    return np.arange(domain.mesh.topology.index_map(domain.tdim).size_local, dtype=np.int32)
+
+
+def refine_uniformly(domain):
+    """Every cell refined (Plaza with every edge marked): ``nc.refine`` of all owned cells."""
+    import nc_dolfinx as nc
+    return nc.refine(domain, owned_cells(domain))
+
+
+def dolfinx_refine_seconds(domain, cells):
+    """DOLFINx's own refinement of the same marked cells, as ``nc.refine`` calls it (the edges of the
+    marked cells, ``redistribute=False``), and nothing else: its wall time (slowest rank)."""
+    import numpy as np
+    from dolfinx import mesh as dmesh
+    msh, tdim = domain.mesh, domain.tdim
+    start = barrier_time(msh.comm)
+    msh.topology.create_entities(1)
+    edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), tdim, 1)
+    dmesh.refine(msh, edges, redistribute=False)
+    return barrier_time(msh.comm) - start
+
+
+def dofs(domain):
+    return domain.mesh.geometry.dim * domain.num_vertices()
+
+
+# --- tables ---------------------------------------------------------------------------------------
+
+def format_table(rows, columns):
+    """``columns``: (key, header, format); missing values print as '-'."""
+    def cell(r, key, fmt):
+        value = r.get(key)
+        if value is None or value == "" or (isinstance(value, float) and math.isnan(value)):
+            return "-"
+        return fmt.format(value)
+    header = [h for _, h, _ in columns]
+    body = [[cell(r, k, fmt) for k, _, fmt in columns] for r in rows]
+    widths = [max(len(x) for x in col) for col in zip(header, *body)]
+    lines = ["  ".join(h.rjust(w) for h, w in zip(header, widths)), "  ".join("-" * w for w in widths)]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(line, widths)) for line in body]
+    return "\n".join(lines)
