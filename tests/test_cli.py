@@ -2,7 +2,6 @@
 levels and says where and why it stopped), one run per result folder, why the loop stopped, what was
 solved (summary.json), doubtful results, and the safety net for internal errors under MPI.
 """
-import json
 import os
 import signal
 import subprocess

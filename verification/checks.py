@@ -4,7 +4,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from common import fitted_slope, fmt, spread
+from common import fitted_slope, spread
 
 TITLES = {
     "manufactured": "1. Manufactured solution with a free boundary (uniform refinement)",
@@ -165,7 +165,7 @@ def manufactured(data):
     settles = [spread([x["effectivity"] for x in run["rows"][-3:]]) for run in runs]
     effs = [x["effectivity"] for run in runs for x in run["rows"]]
     s.check("H¹ rate, all configurations", f"{min(h1):.3f} … {max(h1):.3f}" + (f"; off: {bad_h1}" if bad_h1 else ""),
-            f"1 ± 0.05", not bad_h1)
+            "1 ± 0.05", not bad_h1)
     s.check("η rate (Corollary 8)", f"{min(eta):.3f} … {max(eta):.3f}" + (f"; off: {bad_eta}" if bad_eta else ""),
             "1 ± 0.1", not bad_eta)
     s.check("effectivity η/‖e‖_1 settles", f"variation over the last 3 levels ≤ {100 * max(settles):.1f} %"

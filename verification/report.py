@@ -12,8 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from checks import TITLES, corner_summary, text_table  # noqa: E402
-from common import ROOT, fitted_slope  # noqa: E402
+from common import ROOT  # noqa: E402
 
 
 def _save(fig, path):

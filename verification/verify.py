@@ -13,7 +13,6 @@ report into a temporary directory (``--out`` to choose it), never over the commi
 """
 import argparse
 import json
-import os
 import shutil
 import subprocess
 import sys
