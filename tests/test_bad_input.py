@@ -99,13 +99,16 @@ GMSH_SCRIPT = textwrap.dedent('''
         gmsh.write(path)
         gmsh.finalize()
 
-    def box(path):
+    def box(path, hexahedra=False):
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
         volume = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
         gmsh.model.occ.synchronize()
         gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [volume]), "body")
         gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        if hexahedra:
+            gmsh.model.mesh.setTransfiniteAutomatic()
+            gmsh.option.setNumber("Mesh.RecombineAll", 1)
         gmsh.model.mesh.generate(3)
         gmsh.write(path)
         gmsh.finalize()
@@ -115,17 +118,7 @@ GMSH_SCRIPT = textwrap.dedent('''
                  "duplicate_merged", "empty"):
         square(f"{out}/{kind}.msh", kind)
     box(f"{out}/box.msh")
-    gmsh.initialize()
-    gmsh.option.setNumber("General.Terminal", 0)
-    cube = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
-    gmsh.model.occ.synchronize()
-    gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [cube]), "body")
-    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
-    gmsh.model.mesh.setTransfiniteAutomatic()
-    gmsh.option.setNumber("Mesh.RecombineAll", 1)  # hexahedra
-    gmsh.model.mesh.generate(3)
-    gmsh.write(f"{out}/hex.msh")
-    gmsh.finalize()
+    box(f"{out}/hex.msh", hexahedra=True)
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("Mesh.RecombineAll", 1)  # quadrilaterals
