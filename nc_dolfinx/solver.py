@@ -136,34 +136,16 @@ WARM_DIRECT_MAX_DOFS = 1_000_000
 
 
 def choose_amg(warm_start):
-    """The AMG of the iterative preset: ML on a warm start (a nested level of the adaptive loop: a
-    Plaza-refined mesh), GAMG otherwise (GAMG if ML is not installed).
+    """The AMG of the iterative preset: GAMG, cold or warm.
 
-    PETSc 3.18's GAMG picks its aggregates greedily in order of node degree, which on Plaza-refined meshes
-    (whose vertices come in classes of different degree) leaves 3x as many aggregates and an operator
-    complexity of 3 instead of 1.3: its set-up took 9.5 s on the unit cube refined to 107,811 dofs against
-    2.5 s on the generated mesh of the same size, where ML took 1.1 s (refined 2D square at 132,098 dofs:
-    set-up and solve 2.2 s with GAMG, 0.9 s with ML).
-    On generated meshes the two are within the noise in 3D and GAMG is 5-15 % faster in 2D
-    (benchmarks/README.md)."""
-    return "ml" if warm_start and _pc_available("ml") else "gamg"
-
-
-_AVAILABLE = {}
-
-
-def _pc_available(pc_type):
-    """Whether this PETSc build has the preconditioner ``pc_type`` (ML needs Trilinos ML)."""
-    if pc_type not in _AVAILABLE:
-        pc = PETSc.PC().create(PETSc.COMM_SELF)
-        try:
-            pc.setType(pc_type)
-            _AVAILABLE[pc_type] = True
-        except PETSc.Error:
-            _AVAILABLE[pc_type] = False
-        finally:
-            pc.destroy()
-    return _AVAILABLE[pc_type]
+    ML would set up faster on the adaptive loop's nested levels: PETSc 3.18's GAMG picks its aggregates
+    greedily in order of node degree, which on Plaza-refined meshes (whose vertices come in classes of
+    different degree) leaves 3x as many aggregates and an operator complexity of 3 instead of 1.3 (set-up
+    9.5 s on the unit cube refined to 107,811 dofs against 2.5 s on the generated mesh of the same size,
+    ML 1.1 s). But PETSc 3.18's ML wrapper can fail in parallel (MatWrapML_MPIAIJ: "New nonzero caused a
+    malloc" on one rank, seen on manufactured3d at 2 ranks), which no rank can recover from: the others
+    then wait in a collective. ML stays available as ``-pc_type ml``."""
+    return "gamg"
 
 
 def resolve_options(options, dim, dofs, warm_start):

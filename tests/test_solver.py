@@ -183,8 +183,8 @@ def test_auto_picks_by_dimension_size_and_initial_guess():
                                                    {"pc_gamg_threshold": 0.02}), 2, 100, False)
     assert name == "iterative" and options["ksp_rtol"] == 1e-6 and options["pc_gamg_threshold"] == 0.02
     assert options["pc_type"] == "gamg" and options["snes_linesearch_type"] == "basic"
-    # AMG: GAMG on a cold start, ML on a warm one (a refined mesh); the user's pc_type wins
-    assert resolve_options({}, 3, 10 ** 5, True)[1]["pc_type"] == "ml"
+    # AMG: GAMG, cold or warm (PETSc 3.18's ML can fail on one rank: see choose_amg); the user's pc_type wins
+    assert resolve_options({}, 3, 10 ** 5, True)[1]["pc_type"] == "gamg"
     assert resolve_options({}, 3, 10 ** 5, False)[1]["pc_type"] == "gamg"
     assert resolve_options({"pc_type": "hypre"}, 3, 10 ** 5, True)[1]["pc_type"] == "hypre"
     with pytest.raises(InputError):
