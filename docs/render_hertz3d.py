@@ -24,7 +24,6 @@ rendering only, camera after the first render, views deleted before exit) are th
 """
 import argparse
 import builtins
-import json
 import math
 import os
 import sys
@@ -32,10 +31,10 @@ import sys
 from paraview.simple import (
     AssignViewToLayout, ColorBy, CreateLayout, CreateView, Delete, ExtractEdges, ExtractSurface,
     FeatureEdges, GetColorTransferFunction, GetOpacityTransferFunction, GetScalarBar, PolyLineSource,
-    ProgrammableFilter, Render, SaveScreenshot, Show, WarpByVector, Xdmf3ReaderS)
+    Render, SaveScreenshot, Show, WarpByVector)
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from render_block import GATHER, list_arrays, nice_ceil, text  # noqa: E402 (the same ParaView recipe)
+from render_block import nice_ceil, open_results, text  # noqa: E402 (the same ParaView recipe)
 
 REQUIRED = ("displacement", "von_mises", "contact_pressure")
 GREY = [0.82, 0.82, 0.82]
@@ -177,27 +176,11 @@ def contact_panel(surface, view, found, radii):
 
 def main():
     args = parse()
-    results = os.path.abspath(args.results)
-    xdmf = os.path.join(results, "solution.xdmf")
-    if not os.path.isfile(xdmf):
-        print(f"render_hertz3d: {xdmf} not found", file=sys.stderr)
-        return 2
-    reader = Xdmf3ReaderS(registrationName="solution.xdmf", FileName=[xdmf])  # absolute path!
-    reader.UpdatePipeline()
-    found = list_arrays(reader)
-    missing = [n for n in REQUIRED if n not in found]
-    if missing:
-        print(f"render_hertz3d: missing array(s) {', '.join(missing)} in {xdmf}", file=sys.stderr)
-        return 1
-    summary = {}
-    if os.path.isfile(os.path.join(results, "summary.json")):
-        with open(os.path.join(results, "summary.json")) as f:
-            summary = json.load(f)
+    opened = open_results(args.results, REQUIRED, "render_hertz3d")
+    if isinstance(opened, int):
+        return opened
+    _, found, summary, mesh = opened
     radii, peaks = reference_values(summary)
-
-    mesh = ProgrammableFilter(registrationName="gather", Input=reader)
-    mesh.OutputDataSetType = "vtkUnstructuredGrid"
-    mesh.Script = GATHER
     surface = ExtractSurface(registrationName="surface", Input=mesh)
 
     W, H = args.size
