@@ -106,16 +106,25 @@ def _program_name():
 def main(argv=None):
     """The command line; returns the exit status (see the module's docstring)."""
     comm = MPI.COMM_WORLD
-    handlers = interrupt.install(comm)
+    say = (lambda text: print(text, flush=True)) if comm.rank == 0 else (lambda text: None)
+    current = []  # the run under way (for the interruption's record)
+
+    def leave(signal_name):  # rank 0 of a parallel run, in its signal handler (see interrupt.py)
+        if current:
+            current[0].stopped(KeyboardInterrupt(signal_name))
+        _say_interrupted(current, say)
+        sys.stdout.flush()
+        os._exit(EXIT_INTERRUPTED)
+
+    handlers = interrupt.install(comm, leave)
     try:
-        return _main(argv, comm)
+        return _main(argv, comm, current, say)
     finally:
         interrupt.restore(handlers)
 
 
-def _main(argv, comm):
-    say = (lambda text: print(text, flush=True)) if comm.rank == 0 else (lambda text: None)
-    args, current = None, []
+def _main(argv, comm, current, say):
+    args = None
     try:
         args, rest = parser().parse_known_args(argv)
         if args.list:
@@ -145,12 +154,16 @@ def _main(argv, comm):
         return _internal_error(err, args, comm)
 
 
-def _interrupted(current, comm, say):
+def _say_interrupted(current, say):
     run = current[0] if current else None
     if run and run.reason:
         say(f"nc_dolfinx: {run.reason}; {run.kept or 'no level was finished'}")
     else:
         say("nc_dolfinx: interrupted")
+
+
+def _interrupted(current, comm, say):
+    _say_interrupted(current, say)
     if comm.size > 1 and comm.rank == 0 and not isinstance(sys.exc_info()[1], interrupt.CollectiveInterrupt):
         # The other ranks carry on (see interrupt.py) and may wait in a collective for this one:
         # MPI_Finalize would wait for them. mpirun ends them once this rank has gone.

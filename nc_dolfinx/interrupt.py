@@ -4,10 +4,13 @@ Serially, SIGINT (Ctrl-C) and SIGTERM raise ``KeyboardInterrupt`` where the prog
 Open MPI turns Ctrl-C into SIGTERM to every rank and sends SIGKILL one second later (MCA parameter
 ``odls_base_sigkill_timeout``; checked with Open MPI 4.1). Were every rank to stop at once, rank 0 could be
 left inside a collective that another rank no longer enters, and be killed before it had marked the
-summary. So rank 0 alone stops at once (:class:`KeyboardInterrupt`): it records the interruption, removes
-staging files and leaves without ``MPI_Finalize``, and mpirun then ends the other ranks, which only note
-the signal and carry on meanwhile (so that rank 0's collectives still complete). A signal that reaches
-some ranks only (``kill PID``) is noticed by all ranks together at the next level (:func:`check`).
+summary. So rank 0 alone stops at once: it records the interruption, removes staging files and leaves
+without ``MPI_Finalize`` from inside its signal handler (``leave``), and mpirun then ends the other ranks,
+which only note the signal and carry on meanwhile. Rank 0 must not raise instead: an exception raised in a
+PETSc callback (a line search's pre-check, say) unwinds through PETSc while the other ranks wait in the
+same solve's next reduction, and both then sit there until the SIGKILL (seen under load: the summary left
+at 'running'). A signal that reaches some ranks only (``kill PID``) is noticed by all ranks together at the
+next level (:func:`check`).
 """
 import signal
 import sys
@@ -22,14 +25,18 @@ class CollectiveInterrupt(KeyboardInterrupt):
     """Raised on every rank together by :func:`check`: the ranks may still finish collectively."""
 
 
-def install(comm):
-    """Handle SIGINT and SIGTERM as described above; returns the previous handlers (for :func:`restore`)."""
+def install(comm, leave=None):
+    """Handle SIGINT and SIGTERM as described above; returns the previous handlers (for :func:`restore`).
+    ``leave(signal_name)``, called by rank 0 of a parallel run, records the interruption and must not
+    return (``os._exit``); serially the signal raises :class:`KeyboardInterrupt` where the program is."""
     _received.clear()
 
     def handler(signum, frame):
         _received.append(signum)
         if comm.rank == 0:
             ignore()  # mpirun may signal again while rank 0 cleans up: that must not interrupt the cleanup
+            if comm.size > 1 and leave is not None:
+                leave(signal.Signals(signum).name)
             raise KeyboardInterrupt(signal.Signals(signum).name)
 
     _initialise_libraries_that_set_signals()

@@ -22,6 +22,7 @@ from conftest import PYTHON, ROOT, mpirun_prefix
 TIMEOUT = 120  # seconds; a hang fails instead of blocking the suite
 ERROR = "nc_dolfinx: error:"
 FAST = ["--refine", "none", "--set", "mesh.cells=[4,2]", "--quiet"]  # block on 8 cells, one solve
+FAST3D = ["--refine", "none", "--set", "mesh.cells=[2,1,1]", "--quiet"]  # box on 12 tetrahedra
 INJECTION = "__import__('os').system('touch PWNED')"
 
 
@@ -98,13 +99,16 @@ GMSH_SCRIPT = textwrap.dedent('''
         gmsh.write(path)
         gmsh.finalize()
 
-    def box(path):
+    def box(path, hexahedra=False):
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
         volume = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
         gmsh.model.occ.synchronize()
         gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [volume]), "body")
         gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        if hexahedra:
+            gmsh.model.mesh.setTransfiniteAutomatic()
+            gmsh.option.setNumber("Mesh.RecombineAll", 1)
         gmsh.model.mesh.generate(3)
         gmsh.write(path)
         gmsh.finalize()
@@ -114,6 +118,7 @@ GMSH_SCRIPT = textwrap.dedent('''
                  "duplicate_merged", "empty"):
         square(f"{out}/{kind}.msh", kind)
     box(f"{out}/box.msh")
+    box(f"{out}/hex.msh", hexahedra=True)
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("Mesh.RecombineAll", 1)  # quadrilaterals
@@ -199,6 +204,7 @@ CASES = [
      "'bottom' is in both neumann and contact"),
     # gmsh meshes
     ("mesh_3d", lambda m, t: [gmsh_problem(m, "box")], "is 3D"),
+    ("hexahedral_mesh", lambda m, t: [gmsh_problem(m, "hex")], "group 'body' has Hexahedron 8 elements"),
     ("curve_in_two_groups", lambda m, t: [gmsh_problem(m, "same_curve_twice")], "is in two groups"),
     ("facet_in_two_groups", lambda m, t: [gmsh_problem(m, "duplicate_merged")],
      "a boundary facet is in two groups, 'base' and 'support'"),
@@ -208,6 +214,19 @@ CASES = [
      "mesh.cells must be 2 (rectangle) or 3 (box) positive integers"),
     ("rectangle_corners_malformed", lambda m, t: ["block", *FAST, "--set", "mesh.rectangle=5"],
      "mesh.rectangle must be"),
+    # 3D (issue 10, item 11)
+    ("load_2_components_on_3d", lambda m, t: ["box", *FAST3D, "--set", 'loads.f=["0","-10"]'],
+     "loads.f has 2 components but the mesh is 3D"),
+    ("traction_2_components_on_3d", lambda m, t: ["box", *FAST3D, "--set", 'loads.g={top=["0","-20*x"]}'],
+     "loads.g.top has 2 components but the mesh is 3D"),
+    ("load_3_components_on_2d", lambda m, t: ["block", *FAST, "--set", 'loads.f=["0","0","-10"]'],
+     "loads.f has 3 components but the mesh is 2D"),
+    ("m_n_above_3_in_3d", lambda m, t: ["box", *FAST3D, "--set", "contact.m_n=3.5"],
+     "contact.m_n = 3.5 > 3 on a 3D mesh"),
+    ("symmetry_not_planar", lambda m, t: ["hertz3d", "--refine", "none", "--quiet", "--set",
+                                          'mesh.symmetry=["symm_x","free"]', "--set", "mesh.neumann=[]"],
+     "symmetry group 'free' does not lie in a plane"),
+    ("empty_gamma_c_box", lambda m, t: ["box", *FAST3D, "--set", "mesh.contact=[]"], "Γ_C (contact) is empty"),
     # contact law
     ("m_n_below_1", lambda m, t: ["block", *FAST, "--set", "contact.m_n=0.5"], "contact.m_n must be >= 1"),
     ("c_n_negative", lambda m, t: ["block", *FAST, "--set", "contact.c_n=-1"], "contact.c_n must be >= 0"),
@@ -270,7 +289,7 @@ def test_bad_input(msh, tmp_path, make_args, expected):
 # Representative cases on 2 ranks: one error line (not one per rank), non-zero exit, no results, no hang.
 MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_3d", "empty_mesh",
              "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value", "unused_petsc_option",
-             "quad_mesh"]
+             "quad_mesh", "m_n_above_3_in_3d", "symmetry_not_planar", "hexahedral_mesh", "empty_gamma_c_box"]
 
 
 @pytest.mark.parametrize("name", MPI_CASES)

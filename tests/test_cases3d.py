@@ -142,6 +142,19 @@ def test_cli_refine_none_on_1_and_2_ranks(case, tmp_path):
         assert p["computed"] == pytest.approx(s["computed"], rel=1e-8) and p["reference"] > 0
 
 
+@pytest.mark.parametrize("m_n, noted", [(2.0, False), (2.5, True)])
+def test_exponent_above_2_is_noted_in_the_summary(m_n, noted, tmp_path):
+    """In 3D, 2 < m_n <= 3 runs (the law is well posed) but σ_n(u) ∈ L²(Γ_C), used by the paper's proofs, is
+    no longer guaranteed: the summary records a note saying so (issue 10, item 3); m_n = 2 records none."""
+    from conftest import run_cli, summary
+    out = tmp_path / "out"
+    proc = run_cli(["box", "--refine", "none", "--set", "mesh.cells=[2,1,1]", "--set", f"contact.m_n={m_n}",
+                    "--out", out, "--quiet"], 2)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    notes = summary(out)["notes"]
+    assert any("only for m_n <= 2" in note for note in notes) == noted, notes
+
+
 # --- manufactured3d converges at the optimal rates ------------------------------------------------------
 
 @pytest.mark.parametrize("m", [1, 3])
