@@ -110,31 +110,38 @@ def text(view, string, location, size=14, bold=False, color=(0.1, 0.1, 0.1)):
     return d
 
 
-def main():
-    args = parse()
-    results = os.path.abspath(args.results)
-    xdmf = os.path.join(results, "solution.xdmf")
+def open_results(folder, required, program):
+    """Read ``solution.xdmf`` and ``summary.json`` of a results folder: (reader, arrays found, summary,
+    the arrays of all blocks gathered onto one mesh), or an exit status: 2 without ``solution.xdmf``, 1
+    if an array of ``required`` is missing (both with a message naming ``program``)."""
+    xdmf = os.path.join(os.path.abspath(folder), "solution.xdmf")
     if not os.path.isfile(xdmf):
-        print(f"render_block: {xdmf} not found", file=sys.stderr)
+        print(f"{program}: {xdmf} not found", file=sys.stderr)
         return 2
-
     reader = Xdmf3ReaderS(registrationName="solution.xdmf", FileName=[xdmf])  # absolute path!
     reader.UpdatePipeline()
     found = list_arrays(reader)
-    missing = [n for n in REQUIRED if n not in found]
+    missing = [n for n in required if n not in found]
     if missing:
-        print(f"render_block: missing array(s) {', '.join(missing)} in {xdmf}", file=sys.stderr)
+        print(f"{program}: missing array(s) {', '.join(missing)} in {xdmf}", file=sys.stderr)
         return 1
-
     summary = {}
-    if os.path.isfile(os.path.join(results, "summary.json")):
-        with open(os.path.join(results, "summary.json")) as f:
+    if os.path.isfile(os.path.join(os.path.dirname(xdmf), "summary.json")):
+        with open(os.path.join(os.path.dirname(xdmf), "summary.json")) as f:
             summary = json.load(f)
-
     mesh = ProgrammableFilter(registrationName="gather", Input=reader)
     mesh.OutputDataSetType = "vtkUnstructuredGrid"
     mesh.Script = GATHER
     mesh.UpdatePipeline()
+    return reader, found, summary, mesh
+
+
+def main():
+    args = parse()
+    opened = open_results(args.results, REQUIRED, "render_block")
+    if isinstance(opened, int):
+        return opened
+    reader, found, summary, mesh = opened
     s = args.scale
     warped = WarpByVector(registrationName="warped", Input=mesh)
     warped.Vectors = ["POINTS", "displacement"]
