@@ -11,6 +11,7 @@ import json
 import math
 import sys
 import time
+import traceback
 from pathlib import Path
 
 import numpy as np
@@ -430,7 +431,12 @@ def main(studies=None, config=None, with_output_path=("corner",)):
     start = time.perf_counter()
     cfg = config[args.mode][args.study]
     func = studies[args.study]
-    result = func(cfg, out) if args.study in with_output_path else func(cfg)
+    try:
+        result = func(cfg, out) if args.study in with_output_path else func(cfg)
+    except Exception:  # on one rank only, perhaps: the others would wait for it in a collective
+        traceback.print_exc()
+        sys.stderr.flush()
+        COMM.Abort(1)
     result.update({"study": args.study, "mode": args.mode, "ranks": COMM.size, "time": time.perf_counter() - start,
                    "config": cfg})
     if COMM.rank == 0:
