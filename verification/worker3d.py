@@ -25,7 +25,7 @@ CONFIG = {
                        "hertz_levels": 3},
     },
     "full": {
-        "manufactured3d": {"cells": 4, "levels": 5, "m": [1, 1.5, 2, 3], "c": [0.1, 1, 10, 100, 1000]},
+        "manufactured3d": {"cells": 4, "levels": 4, "m": [1, 1.5, 2, 3], "c": [0.1, 1, 10, 100, 1000]},
         "hertz3d": {"levels": 6},
         "fichera": {"adaptive_levels": 8, "uniform_levels": 3, "reference_extra": 1, "reference_uniform": False},
         "penalty3d": {"cells": [16, 8, 8], "eps": [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]},
