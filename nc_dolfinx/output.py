@@ -17,6 +17,7 @@ import io
 import json
 import os
 import re
+import secrets
 import shutil
 import tempfile
 import time
@@ -179,8 +180,9 @@ class ResultFolder:
         The temporary name keeps the suffix (matplotlib chooses the format by it)."""
         target = self.path / name
         target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}", dir=target.parent)
-        os.close(fd)
+        # The name is recorded before the file exists: a Ctrl-C at any point leaves nothing untracked
+        # (with mkstemp, a signal between its return and the record left the file behind).
+        tmp = str(target.parent / f".{target.stem}.{secrets.token_hex(8)}.tmp{target.suffix}")
         self.temporary.add(tmp)
         try:
             write(tmp)
@@ -211,11 +213,20 @@ class ResultFolder:
             self.remove_stage()
             for tmp in list(self.temporary):
                 Path(tmp).unlink(missing_ok=True)
+            self._sweep_staging_leftovers()
             if not kept:
                 for folder in self.created:
                     Path(folder).rmdir()
         except OSError:
             pass
+
+    def _sweep_staging_leftovers(self):
+        """A signal can arrive between a staging folder or probe being created and being recorded: remove
+        anything under the folder with the names this class gives its staging and temporary files."""
+        if not self.path.is_dir():
+            return
+        for path in [*self.path.glob(".partial-*"), *self.path.glob(".probe-*"), *self.path.rglob(".*.tmp*")]:
+            shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink(missing_ok=True)
 
 
 def text_writer(text):

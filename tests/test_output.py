@@ -170,3 +170,25 @@ def test_vtu_writer_in_3d(tmp_path):
     assert np.allclose(cdata["T"], np.einsum("ci,cj->cij", c, c).reshape(-1, 9), atol=1e-14)
     volume = np.abs(np.linalg.det(x[cells][:, 1:] - x[cells][:, :1])).sum() / 6
     assert abs(volume - 1.0) < 1e-12
+
+
+def test_clean_up_removes_staging_files_a_signal_left_unrecorded(tmp_path):
+    """A Ctrl-C between a temporary file's creation and its record left it behind (seen in CI): the
+    clean-up after an interruption removes every file and folder named like ours, and only those."""
+    from mpi4py import MPI
+    from nc_dolfinx.output import ResultFolder
+    folder = ResultFolder(tmp_path / "out", MPI.COMM_SELF)
+    folder.open()
+    (folder.path / "levels").mkdir()
+    (folder.path / "history.csv").write_text("kept")
+    (folder.path / "levels" / "level_00.xdmf").write_text("kept")
+    unrecorded = [folder.path / ".history.0123abcd.tmp.csv", folder.path / "levels" / ".plot.99.tmp.png",
+                  folder.path / ".probe-x1y2"]
+    for path in unrecorded:
+        path.write_text("partial")
+    (folder.path / ".partial-abc").mkdir()
+    (folder.path / ".partial-abc" / "piece_0.vtu").write_text("partial")
+    folder.replace("summary.json", lambda tmp: Path(tmp).write_text("{}"))
+    folder.clean_up(kept=True)
+    left = sorted(str(p.relative_to(folder.path)) for p in folder.path.rglob("*"))
+    assert left == ["history.csv", "levels", "levels/level_00.xdmf", "summary.json"]
