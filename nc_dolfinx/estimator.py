@@ -22,9 +22,11 @@ Equivalently, mirroring the body across the plane makes F interior, with the jum
 and 0 (normal): the same term up to the factor 4.
 
 Every quantity is assembled against DG0 test functions over cells, interior facets, Neumann facets and
-contact/symmetry facets (or computed from the vertex coordinates: |K|, h_K, h_F), so it is parallel with
-ghost cells on facets only. The integrals are grouped into few assemblies (one for cells, Γ_C and the
-symmetry planes, one for interior facets, one per Neumann slot below): each has a fixed cost.
+contact/symmetry facets (or computed from the vertex coordinates: h_K, h_F), so it is parallel with
+ghost cells on facets only. The integrals are grouped into few assemblies (one for the cells, the interior
+facets, Γ_C and the symmetry planes, one per Neumann slot below): each has a fixed cost. Constant data
+have no oscillation: a constant f skips the patch sum, a constant g its facets' part of ζ (both would
+otherwise add round-off).
 - g_F: the means are per *facet*, and a cell may have up to tdim + 1 Neumann facets. Each Neumann facet is
   sorted by its local index i ∈ {0, …, tdim} in its cell (its *slot*), so ``ds`` over one slot sees at
   most one facet per cell and the per-facet integrals ∫_F g, ∫_F (σν − g), ∫_F |g|², |F| come out
@@ -50,7 +52,7 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
 from . import forms, physics
-from .estimator_geometry import cell_geometry, facet_diameters, owned_values_with_ghosts, patch_sum, slot_tags
+from .estimator_geometry import cell_diameters, facet_diameters, owned_values_with_ghosts, patch_sum, slot_tags
 from .estimator_kink import law_residual_squared
 
 __all__ = ["NAMES", "CELL_DEGREE", "CONTACT_DEGREE", "CONTACT_DEGREE_SPLIT", "Estimate", "assemble_cellwise",
@@ -106,33 +108,27 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
         split_kinks = msh.topology.dim > 2  # faces; edges keep their verified unsplit rule
     if contact_degree is None:
         contact_degree = CONTACT_DEGREE_SPLIT if split_kinks else CONTACT_DEGREE
-    Q = fem.FunctionSpace(msh, ("DG", 0))
-    # One vector DG0 space for the assemblies of several quantities at once (Neumann slots need the most).
-    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=2 * msh.geometry.dim + 2)
-    w = ufl.TestFunction(Q)
-    h = ufl.CellDiameter(msh)
+    gdim = msh.geometry.dim
+    Q = fields.domain.region.function_space  # the mesh's DG0 space (building one costs a dofmap)
+    # One vector DG0 space for the assemblies of several quantities at once (the cell and facet terms
+    # need gdim + 6 components, a Neumann slot 2 gdim + 3).
+    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=max(gdim + 6, 2 * gdim + 3))
     n = ufl.FacetNormal(msh)
     s = fields.sigma(u)
-    dS = ufl.dS
-    area, h_K = cell_geometry(msh)
+    h_K = cell_diameters(msh)
 
-    f_int, f_sq, eta_3_sq, eta_4_sq, symmetry_sq = _cell_and_boundary_terms(
+    area, f_int, f_sq, eta_2_sq, eta_3_sq, eta_4_sq = _cell_and_facet_terms(
         u, fields, Qv, contact_degree, cell_degree, split_kinks)
     f_mean_sq = np.sum(f_int ** 2, axis=1) / area  # ‖f_K‖_K² = |∫_K f|² / |K|
     eta_1_sq = h_K ** 2 * f_mean_sq
-    osc_f = np.maximum(f_sq - f_mean_sq, 0.0)
-
-    # Interior facets: the full jump, each side weighted by its own h_K.
-    jump = s("+") * n("+") + s("-") * n("-")
-    eta_2_sq = assemble_cellwise(ufl.inner(jump, jump) * (h("+") * w("+") + h("-") * w("-")) * dS, Q)[:, 0]
-    if symmetry_sq is not None:
-        eta_2_sq += symmetry_sq
 
     # Neumann facets, one slot at a time: per-facet means of g and of σν − g.
     eta_2_neumann, osc_g = _neumann_facet_terms(fields, s, n, Qv, cell_degree)
     eta_2_sq += h_K * eta_2_neumann
 
-    zeta_sq = h_K ** 2 * patch_sum(osc_f, Q) + osc_g
+    zeta_sq = osc_g
+    if not _constant(fields.f):  # a constant f equals its means f_K: no oscillation (nor patch sum)
+        zeta_sq = zeta_sq + h_K ** 2 * patch_sum(np.maximum(f_sq - f_mean_sq, 0.0), Q)
     squares = {"eta_1": eta_1_sq, "eta_2": eta_2_sq, "eta_3": eta_3_sq, "eta_4": eta_4_sq,
                "zeta": zeta_sq}
     squares["eta"] = eta_1_sq + eta_2_sq + eta_3_sq + eta_4_sq
@@ -148,10 +144,17 @@ def _against(vector, wv, first):
     return sum((vector[i] * wv[first + i] for i in range(1, len(vector))), vector[0] * wv[first])
 
 
-def _cell_and_boundary_terms(u, fields, Qv, contact_degree, cell_degree, split_kinks):
-    """One assembly, per owned cell: ∫_K f, ∫_K |f|²; over its contact facets Σ h_K ‖σ_t‖²_F (η_3K²) and
-    Σ h_K ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F (η_4K²); over its symmetry facets Σ h_K ‖σ_t‖²_F (None if
-    the problem has no symmetry plane)."""
+def _constant(expression):
+    """Whether a UFL expression is the same on every cell (no coordinates, no functions in it)."""
+    return not (ufl.algorithms.extract_type(expression, ufl.SpatialCoordinate)
+                or ufl.algorithms.extract_coefficients(expression))
+
+
+def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kinks):
+    """One assembly, per owned cell: |K|, ∫_K f, ∫_K |f|²; η_2K² without its Neumann part: over its interior
+    facets Σ h_K ‖[σ(u_h) ν_F]‖²_F (the full jump, each side weighted by its own h_K) and over its symmetry
+    facets Σ h_K ‖σ_t‖²_F; over its contact facets Σ h_K ‖σ_t‖²_F (η_3K²) and
+    Σ h_K ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F (η_4K²)."""
     msh, gdim = fields.domain.mesh, fields.domain.mesh.geometry.dim
     wv = ufl.TestFunction(Qv)
     h, n, s, f = ufl.CellDiameter(msh), ufl.FacetNormal(msh), fields.sigma(u), fields.f
@@ -162,14 +165,17 @@ def _cell_and_boundary_terms(u, fields, Qv, contact_degree, cell_degree, split_k
         law_squared = (forms.contact_pressure(u, fields, n) + physics.normal_stress(s, n)) ** 2
     dx = ufl.dx(metadata={"quadrature_degree": cell_degree})
     dC = forms.contact_measure(fields, contact_degree)
-    form = (_against(f, wv, 0) + ufl.inner(f, f) * wv[gdim]) * dx \
+    form = (_against(f, wv, 0) + ufl.inner(f, f) * wv[gdim] + wv[gdim + 5]) * dx \
         + h * (ufl.inner(sigma_t, sigma_t) * wv[gdim + 1] + law_squared * wv[gdim + 2]) * dC
     symmetry = tuple(fields.symmetry_axes)
     if symmetry:
         form += h * ufl.inner(sigma_t, sigma_t) * wv[gdim + 3] * fields.ds(symmetry)
+    jump = s("+") * n("+") + s("-") * n("-")
+    form += ufl.inner(jump, jump) * (h("+") * wv("+")[gdim + 4] + h("-") * wv("-")[gdim + 4]) * ufl.dS
     values = assemble_cellwise(form, Qv)
-    return (values[:, :gdim], values[:, gdim], values[:, gdim + 1], values[:, gdim + 2],
-            values[:, gdim + 3] if symmetry else None)
+    eta_2_sq = values[:, gdim + 4] + values[:, gdim + 3] if symmetry else values[:, gdim + 4].copy()
+    return (values[:, gdim + 5], values[:, :gdim], values[:, gdim], eta_2_sq, values[:, gdim + 1],
+            values[:, gdim + 2])
 
 
 def _neumann_facet_terms(fields, s, n, Qv, degree):
@@ -189,12 +195,15 @@ def _neumann_facet_terms(fields, s, n, Qv, degree):
         for k, group in enumerate(groups):
             g = fields.g.get(group, zero)
             integrand = _against(s * n - g, wv, 0) + _against(g, wv, gdim)
-            form += (integrand + ufl.inner(g, g) * wv[2 * gdim] + wv[2 * gdim + 1]) * ds(1 + k)
+            varying = 0.0 if _constant(g) else 1.0  # a constant g equals its means g_F: no oscillation
+            form += (integrand + ufl.inner(g, g) * wv[2 * gdim] + wv[2 * gdim + 1]
+                     + varying * wv[2 * gdim + 2]) * ds(1 + k)
         values = assemble_cellwise(form, Qv)
         measure = values[:, 2 * gdim + 1]
         cells = np.flatnonzero(measure > 0)
         F = measure[cells]
         eta[cells] += np.sum(values[cells, :gdim] ** 2, axis=1) / F
+        cells, F = cells[values[cells, 2 * gdim + 2] > 0], F[values[cells, 2 * gdim + 2] > 0]
         g_mean_sq = np.sum(values[cells, gdim:2 * gdim] ** 2, axis=1) / F  # |∫_F g|² / |F|
         g_norm_sq = np.maximum(values[cells, 2 * gdim] - g_mean_sq, 0.0)
         osc[cells] += facet_diameters(msh, cells, j) * g_norm_sq

@@ -1,7 +1,6 @@
 """Mesh helpers of the estimator (Definition 5, §4.1), for triangles and tetrahedra alike.
 
-- :func:`cell_geometry`: |K| (from the vertex coordinates) and h_K (the longest edge, = the diameter of a
-  simplex) of the owned cells.
+- :func:`cell_diameters`: h_K (the longest edge, = the diameter of a simplex) of the owned cells.
 - :func:`facet_diameters`: h_F of the facet with a given local index (|E| for an edge, the longest edge of
   a triangular face), for ζ's Neumann part.
 - :func:`slot_tags`: boundary facets sorted by their local index in their cell (their *slot*), so that
@@ -22,34 +21,15 @@ import dolfinx
 from dolfinx import fem, mesh as dmesh
 
 
-def _vertex_coordinates(msh, cells):
-    """(len(cells), tdim + 1, gdim) vertex coordinates of local ``cells`` (P1 geometry)."""
-    tdim, gdim = msh.topology.dim, msh.geometry.dim
-    nodes = msh.geometry.dofmap.array.reshape(-1, tdim + 1)[cells]
-    return msh.geometry.x[:, :gdim][nodes]
-
-
-def _det(a):
-    """Determinants of a stack of 2×2 or 3×3 matrices, written out (the same round-off as by hand)."""
-    if a.shape[-1] == 2:
-        return a[..., 0, 0] * a[..., 1, 1] - a[..., 0, 1] * a[..., 1, 0]
-    return (a[..., 0, 0] * (a[..., 1, 1] * a[..., 2, 2] - a[..., 1, 2] * a[..., 2, 1])
-            - a[..., 0, 1] * (a[..., 1, 0] * a[..., 2, 2] - a[..., 1, 2] * a[..., 2, 0])
-            + a[..., 0, 2] * (a[..., 1, 0] * a[..., 2, 1] - a[..., 1, 1] * a[..., 2, 0]))
-
-
 def diameters(msh, dim, entities):
     """Diameters (longest edge) of local mesh entities of dimension ``dim`` (DOLFINx's C++ ``h``)."""
     return dolfinx.cpp.mesh.h(msh._mesh, dim, np.asarray(entities, dtype=np.int32))
 
 
-def cell_geometry(msh):
-    """|K| (area or volume) and h_K (longest edge) of the owned cells (P1 simplices)."""
+def cell_diameters(msh):
+    """h_K (the longest edge) of the owned cells (P1 simplices)."""
     tdim = msh.topology.dim
-    n_owned = msh.topology.index_map(tdim).size_local
-    X = _vertex_coordinates(msh, slice(0, n_owned))
-    steps = X[:, 1:] - X[:, :-1]  # v1 − v0, v2 − v1, …: the same determinant as v_i − v0
-    return np.abs(_det(steps)) / math.factorial(tdim), diameters(msh, tdim, np.arange(n_owned))
+    return diameters(msh, tdim, np.arange(msh.topology.index_map(tdim).size_local))
 
 
 def facet_diameters(msh, cells, local_facet):

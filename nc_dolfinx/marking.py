@@ -19,13 +19,20 @@ def doerfler_threshold(eta_squared, theta):
     """
     if not 0 < theta <= 1:
         raise ValueError(f"theta must lie in (0, 1], got {theta}")
-    values = np.sort(np.asarray(eta_squared, dtype=float))[::-1]
+    values = np.asarray(eta_squared, dtype=float)
     total = values.sum()
     if total == 0:
         return np.inf
-    cumulative = np.cumsum(values)
-    k = int(np.searchsorted(cumulative, theta * total * (1 - 1e-14)))
-    return values[min(k, len(values) - 1)]
+    target = theta * total * (1 - 1e-14)
+    # The marked set is usually a small part of the mesh: sort only the largest values, more if needed
+    # (the running sum over them is the same as over the whole sorted list).
+    top = min(len(values), 4096)
+    while True:
+        largest = np.sort(np.partition(values, len(values) - top)[len(values) - top:])[::-1]
+        k = int(np.searchsorted(np.cumsum(largest), target))
+        if k < top or top == len(values):
+            return largest[min(k, top - 1)]
+        top = min(len(values), 8 * top)
 
 
 def mark(indicators, theta=0.5, strategy="doerfler", comm=None):

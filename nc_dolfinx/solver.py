@@ -60,10 +60,11 @@ OWN_DEFAULTS = {
     "pc_refresh_growth": 3.0,      # KRYLOV_GROWTH below
     "ew_rtol0_unsupported": 0.3,   # see _first_krylov_tolerance
     "fallbacks": True,             # false: a failed SNES solve ends the run at once
+    # Unless an snes_atol is given, ‖F‖ <= atol_of_load ‖L‖ also counts as converged: with a good initial
+    # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
+    "atol_of_load": 1e-10,
 }
-# Unless an snes_atol is given, ‖F‖ <= ATOL_OF_LOAD ‖L‖ also counts as converged: with a good initial
-# guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
-ATOL_OF_LOAD = 1e-10
+ATOL_OF_LOAD = OWN_DEFAULTS["atol_of_load"]
 
 # Smoothed-aggregation AMG for elasticity, set up as in DOLFINx's elasticity demo: the rigid-body
 # near-nullspace (on the matrices, see NonlinearSolver), the SPD flag, Chebyshev/Jacobi smoothers with
@@ -511,10 +512,10 @@ class NonlinearSolver:
     # --- solving -----------------------------------------------------------------------------------
 
     def _target(self, initial_norm):
-        """‖F‖ <= max(snes_rtol ‖F(u_0)‖, ATOL_OF_LOAD ‖L‖) (or the given snes_atol): as an absolute
+        """‖F‖ <= max(snes_rtol ‖F(u_0)‖, atol_of_load ‖L‖) (or the given snes_atol): as an absolute
         tolerance, the same for every attempt of one load step (a retry starts from another ‖F‖)."""
         if not self.atol_given:
-            self.atol = max(ATOL_OF_LOAD * self.load.norm(), 1e-300)
+            self.atol = max(float(self.options["atol_of_load"]) * self.load.norm(), 1e-300)
         return max(self.atol, self.rtol * initial_norm)
 
     def _snes_solve(self, x, stats, target):

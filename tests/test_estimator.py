@@ -532,6 +532,20 @@ def test_zeta_patch_sum_brute_force():
     assert err < 1e-6
 
 
+def test_constant_data_have_no_oscillation():
+    """f and g constant: f = f_K and g = g_F, so ζ is exactly 0 on every cell (it was round-off, up to
+    2e-7 on the hertz case, before the constant f skipped the patch sum), while η_1 is h_K |f| |K|^{1/2}
+    as by hand."""
+    data = dict(ZETA_CASE, loads={"f": ["0.5", "-2*3"], "g": {"top": ["1", "-0.25"]}})
+    fields, V, (points, tris, side, spec) = setup_case("constant", None, data)
+    u = fem.Function(V)
+    u.interpolate(u_case_a)
+    expected, centroids, _ = hand_estimator(points, tris, side, spec, u_case_a)
+    computed = computed_by_cell(estimate(u, fields), fields.domain.mesh, centroids)
+    assert np.all(computed["zeta"] == 0.0)
+    assert_close(computed["eta_1"], expected["eta_1"], what="eta_1")
+
+
 # --- parallel: the same indicators on 1, 2 and 3 ranks --------------------------------------------
 
 PARALLEL_SCRIPT = r'''

@@ -47,9 +47,12 @@ def manufactured3d(data):
     runs, cfg = data["runs"], data["config"]
     cells = cfg["cells"]
     fit = len(fitted_levels(runs[0]["rows"]))
+    deeper = [f"m={run['m']:g}, c={run['c']:g}" for run in runs if len(run["rows"]) > cfg["levels"]]
     s.notes.append(f"{len(runs)} configurations, the unit cube with {cells}×{cells}×{cells}×6 tetrahedra refined "
-                   f"uniformly {cfg['levels'] - 1} times; slopes and the effectivity spread over the last {fit} levels "
-                   "(never level 0).")
+                   f"uniformly {cfg['levels'] - 1} times"
+                   + (f", once more where the effectivity had not settled by then ({', '.join(deeper)})" if deeper else "")
+                   + f"; slopes and the effectivity spread over the last {fit} levels (never level 0).")
+    most = max(len(run["rows"]) for run in runs)
     rows, eff_rows = [], []
     bad = {"h1": [], "l2": [], "eta": [], "settle": []}
     for run in runs:
@@ -63,7 +66,8 @@ def manufactured3d(data):
                      *(f"{k[key]:.2f}" for key in ("eta_1", "eta_2", "eta_3", "eta_4", "zeta")),
                      f"{eff[-1]:.3f}", f"{100 * settle:.1f} %", f"{r[-1]['effectivity_augmented']:.3f}",
                      r[-1]["newton_iterations"]])
-        eff_rows.append([label] + [f"{x['effectivity']:.3f}" for x in run["rows"]])
+        eff_rows.append([label] + [f"{x['effectivity']:.3f}" for x in run["rows"]]
+                        + ["–"] * (most - len(run["rows"])))
         for name, key, bounds in (("h1", "h1_error", H1_SLOPE), ("l2", "l2_error", L2_SLOPE), ("eta", "eta", H1_SLOPE)):
             if not within(k[key], bounds):
                 bad[name].append(f"{label}: {k[key]:.3f}")
@@ -73,7 +77,7 @@ def manufactured3d(data):
                      ["config", "dofs", "H¹", "L²", "η", "η_1", "η_2", "η_3", "η_4", "ζ", "η/‖e‖_1", "spread",
                       "η/ẽ", "Newton"], rows))
     s.tables.append(("effectivity η/‖u − u_h‖_1 per level",
-                     ["config"] + [f"L{i}" for i in range(len(runs[0]["rows"]))], eff_rows))
+                     ["config"] + [f"L{i}" for i in range(most)], eff_rows))
 
     def summary(key):
         values = [slope(fitted_levels(run["rows"]), key) for run in runs]
