@@ -106,6 +106,10 @@ def test_the_solver_s_own_choices_are_options_of_the_same_layers(penalty_referen
     assert close(u, penalty_reference)
     with pytest.raises(InputError, match="fallbacks off"):
         solve_square(1e4, 1, "iterative", {"snes_max_it": 1, "fallbacks": "false"})
+    # Newton's absolute stop ‖F‖ <= atol_of_load ‖L‖ (a cold start: ‖F(0)‖ = ‖L‖)
+    loose = solve_square(100, 2, "direct", {"snes_rtol": 1e-14, "atol_of_load": 1e-4})[1].newton_iterations
+    tight = solve_square(100, 2, "direct", {"snes_rtol": 1e-14, "atol_of_load": 1e-12})[1].newton_iterations
+    assert loose < tight
 
 
 def test_a_failing_krylov_solve_refreshes_the_preconditioner(penalty_reference):
