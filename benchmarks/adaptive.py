@@ -27,8 +27,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from common import (LinearFloor, dolfinx_refine_seconds, format_table, launch, machine_load,  # noqa: E402
-                    max_rss_mb, rank_max)
+from common import (LinearFloor, build_refinement_connectivity, dolfinx_refine_seconds,  # noqa: E402
+                    format_table, launch, machine_load, max_rss_mb, rank_max)
 from run import BOX  # noqa: E402
 
 
@@ -56,6 +56,7 @@ def worker(args):
                "krylov": stats.linear_iterations, "preset": stats.preset, "pc_type": stats.pc_type,
                "pc_setups": stats.pc_setups, "reason": stats.converged_reason}
         if level.marked is not None:
+            build_refinement_connectivity(solution.domain.mesh)
             row["refine_dolfinx_next"] = dolfinx_refine_seconds(solution.domain, level.marked)
         if args.floor:
             floor = LinearFloor(problem, solution.domain)

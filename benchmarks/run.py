@@ -46,9 +46,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from common import (LinearFloor, barrier_time, current_rss_mb, dofs, dolfinx_refine_seconds,  # noqa: E402
-                    format_table, launch, legacy_available, machine_load, max_rss_mb, pc_setup_seconds,
-                    rank_max, timed_solve)
+from common import (LinearFloor, barrier_time, build_refinement_connectivity, current_rss_mb,  # noqa: E402
+                    dofs, dolfinx_refine_seconds, format_table, launch, legacy_available, machine_load,
+                    max_rss_mb, pc_setup_seconds, rank_max, timed_solve)
 
 DEFAULT_SIZES = ["1e4", "1.3e5", "5e5", "2e6"]
 DEFAULT_PARALLEL_SIZES = ["1e4", "1.3e5", "5e5"]  # keeps the default run near 10 minutes on 2 cores
@@ -182,6 +182,7 @@ def adapt_step(solution, comm, warm):
     t_estimate = barrier_time(comm) - t
     marked = nc.mark(est, 0.5, "doerfler")
     t_mark = barrier_time(comm) - t - t_estimate
+    build_refinement_connectivity(solution.domain.mesh)
     t = barrier_time(comm)
     child = nc.refine(solution.domain, marked)
     t_refine = barrier_time(comm) - t
