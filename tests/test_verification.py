@@ -30,3 +30,15 @@ def test_quick_verification_passes(tmp_path):
     for picture in ("manufactured_rates.png", "corner_meshes.png", "penalty.png", "hertz.png",
                     "manufactured3d_rates.png", "hertz3d.png", "fichera_convergence.png", "penalty3d.png"):
         assert (tmp_path / picture).is_file()
+
+
+def test_the_sensitivity_study_s_breaks_still_apply():
+    """Study 8 patches nc_dolfinx/estimator.py textually; a refactor that moves the patched line makes the
+    full report's study 8 fail ("patch not applied", seen after the estimator's assemblies were merged).
+    Each pattern must occur exactly once, so the refactor itself is caught here, in CI."""
+    import sys
+    sys.path.insert(0, str(ROOT / "verification"))
+    import sensitivity
+    text = (ROOT / "nc_dolfinx" / "estimator.py").read_text()
+    assert {name: text.count(old) for name, (old, _) in sensitivity.BREAKS.items()} == \
+        {name: 1 for name in sensitivity.BREAKS}
