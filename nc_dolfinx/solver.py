@@ -64,7 +64,6 @@ OWN_DEFAULTS = {
     # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
     "atol_of_load": 1e-10,
 }
-ATOL_OF_LOAD = OWN_DEFAULTS["atol_of_load"]
 
 # Smoothed-aggregation AMG for elasticity, set up as in DOLFINx's elasticity demo: the rigid-body
 # near-nullspace (on the matrices, see NonlinearSolver), the SPD flag, Chebyshev/Jacobi smoothers with
@@ -160,7 +159,23 @@ def resolve_options(options, dim, dofs, warm_start):
     resolved = {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name]}
     if name == "iterative":
         resolved["pc_type"] = choose_amg(warm_start)
+    for key in OWN_DEFAULTS.keys() & user.keys():
+        _check_own_option(key, user[key])
     return name, {**resolved, **user}
+
+
+def _check_own_option(key, value):
+    """The solver's own options are not PETSc's, so PETSc does not check them: a number ≥ 0 or a flag."""
+    if isinstance(OWN_DEFAULTS[key], bool):
+        if value is not None and str(value).lower() not in ("true", "false", "1", "0", "yes", "no", "on", "off"):
+            raise InputError(f"solver option {key} must be true or false, got '{value}'")
+        return
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = float("nan")
+    if not number >= 0:
+        raise InputError(f"solver option {key} must be a number >= 0, got '{value}'")
 
 
 def _flag(value):

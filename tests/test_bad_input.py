@@ -261,6 +261,13 @@ CASES = [
      "PETSc option -snes_tyep was not used by any solver (misspelt?); --allow-unused-petsc-options accepts it"),
     ("unused_petsc_options_in_file", lambda m, t: ["block", *FAST, "--set", "solver.petsc_options.ksp_typo=1",
                                                    "-pc_tipe", "lu"], "PETSc options -ksp_typo, -pc_tipe were not used"),
+    ("own_solver_option_not_a_number", lambda m, t: ["block", *FAST, "-atol_of_load", "abc"],
+     "solver option atol_of_load must be a number >= 0, got 'abc'"),
+    ("own_solver_option_negative_in_file", lambda m, t: ["block", *FAST, "--set",
+                                                         "solver.petsc_options.pc_refresh_misfit=-1"],
+     "solver option pc_refresh_misfit must be a number >= 0, got '-1'"),
+    ("own_solver_flag_not_a_flag", lambda m, t: ["block", *FAST, "-fallbacks", "maybe"],
+     "solver option fallbacks must be true or false, got 'maybe'"),
     ("load_steps_not_integer", lambda m, t: ["block", *FAST, "--set", 'solver.load_steps="x"'],
      "solver.load_steps must be an integer"),
     # command line

@@ -23,6 +23,17 @@ def test_doerfler_set_is_minimal_and_satisfies_the_bulk_criterion(theta, seed):
     assert values[marked].min() >= np.delete(values, marked).max(initial=0)
 
 
+@pytest.mark.parametrize("theta", [0.05, 0.5, 0.9])
+def test_doerfler_on_many_cells_where_the_largest_few_do_not_suffice(theta):
+    """The threshold is found among the largest values only, widening the search ×8 until the bulk is
+    reached: with 2e5 nearly equal values θ = 0.5 needs ~1e5 of them (two widenings past the first
+    4096), θ = 0.05 about 1e4. The marked set is still the brute-force minimal one."""
+    values = np.random.default_rng(7).uniform(1.0, 1.1, size=200_000)
+    marked = mark(values, theta, "doerfler", MPI.COMM_SELF)
+    assert len(marked) == brute_force_minimal_size(values, theta) > 4096
+    assert values[marked].min() >= np.delete(values, marked).max(initial=0)
+
+
 def test_ties_at_the_threshold_are_marked_together():
     values = np.array([4.0, 1.0, 1.0, 1.0, 1.0, 0.5])
     marked = mark(values, 0.5, "doerfler", MPI.COMM_SELF)  # 4 + 1 reaches half of 8.5; three 1's tie
