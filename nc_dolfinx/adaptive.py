@@ -215,7 +215,8 @@ def _row(number, domain, solution, est):
     stats, dim = solution.stats, domain.mesh.geometry.dim
     row = {"level": number, "dofs": dim * domain.num_vertices(), "cells": domain.num_cells(), **est.totals,
            "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
-           "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix}
+           "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix,
+           "recoveries": stats.recoveries}
     row.update(quantities.solution_quantities(solution.u, solution.fields))
     row.update(quantities.errors(solution.u, solution.fields))
     if "h1_error" in row:

@@ -28,6 +28,7 @@ COLUMNS = {
     "linear_iterations": "Krylov iterations summed over the level's Newton steps",
     "converged_reason": "PETSc SNES converged reason",
     "preconditioner_matrix": "matrix the preconditioner was built from at the end of the level (bulk | jacobian | auto)",
+    "recoveries": "what the solver did after a failure: gmres (CG met an indefinite preconditioner), refresh, stronger_pc, continuation (fallbacks after a failed SNES solve); empty if nothing failed",
     "max_contact_pressure": "max of the nodal contact pressure p >= 0 (lumped L² projection on Γ_C)",
     "elastic_energy": "½ a(u_h, u_h)",
     "contact_resultant": "∫_Γ_C p >= 0: the normal contact force",

@@ -237,6 +237,7 @@ class SolveStats:
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+INDEFINITE = (PETSc.KSP.ConvergedReason.DIVERGED_INDEFINITE_PC, PETSc.KSP.ConvergedReason.DIVERGED_INDEFINITE_MAT)
 
 
 class _LineSearchFailure(Exception):
@@ -314,6 +315,7 @@ class NonlinearSolver:
             matrix.setNearNullSpace(near_nullspace)
             matrix.setOption(PETSc.Mat.Option.SPD, True)  # K + j_n'(u): symmetric positive definite
         self._create_snes()
+        self.left_cg = False  # see _leave_cg
         self._reset_preconditioner_state()
 
     def _assemble_constant_parts(self, forms):
@@ -507,11 +509,30 @@ class NonlinearSolver:
         A.assemble()
         if self.first_jacobian:
             self._first_krylov_tolerance(A)
-        if self._wants_refresh(snes.getIterationNumber() == 0, A):
+        first = snes.getIterationNumber() == 0
+        if not first and self._met_indefinite_preconditioner():
+            self._leave_cg()
+        if self._wants_refresh(first, A):
             # While P is left untouched PETSc sees an unchanged matrix and keeps its PC.
             A.copy(P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.force_refresh, self.best_rate = False, math.inf
             self.pc_setups += 1
+
+    def _met_indefinite_preconditioner(self):
+        """CG stopped on a preconditioner that is not positive definite. Rebuilding it from the same matrix
+        rebuilds the same one: GAMG's coarse levels can hold rows with a vanishing diagonal (aggregates too
+        small to carry the six rigid-body modes; seen on 3D meshes on 2 ranks, depending on the partition),
+        where the Jacobi-Chebyshev smoother's eigenvalue estimate fails. CG then stopped after 2 iterations
+        at every Newton step (50 steps for 1 % of ‖F‖ on manufactured3d, 2187 dofs)."""
+        ksp = self.snes.getKSP()
+        return (ksp.getType() == PETSc.KSP.Type.CG and ksp.getConvergedReason() in INDEFINITE
+                and "ksp_type" not in self.user_keys)
+
+    def _leave_cg(self):
+        """GMRES from here on in this solve: it needs no definite preconditioner (the stronger_pc fallback's
+        Krylov method, without its cost of a preconditioner per Newton step)."""
+        self.snes.getKSP().setType(PETSc.KSP.Type.GMRES)
+        self.left_cg = True
 
     def _first_krylov_tolerance(self, A):
         """Eisenstat–Walker's first tolerance (unless given): ew_rtol0_unsupported when J(u_0) holds no contact
@@ -638,7 +659,7 @@ class NonlinearSolver:
         stats.preset = self.preset
         stats.pc_setups = self.pc_setups
         stats.pc_type = self.snes.getKSP().getPC().getType()
-        stats.recoveries = ",".join(recoveries)
+        stats.recoveries = ",".join((["gmres"] if self.left_cg else []) + recoveries)
         return stats
 
     def destroy(self):

@@ -1,6 +1,8 @@
 """The nonlinear solver: presets, preconditioner modes, load stepping, the fallbacks and PETSc options all
 reach the same solution; the defaults converge on a stiff penalty that PETSc's defaults did not; options
 given on the command line or in the problem file take effect."""
+import json
+
 import numpy as np
 import pytest
 import ufl
@@ -9,7 +11,7 @@ from petsc4py import PETSc
 
 from dolfinx import fem, mesh as dmesh
 
-from conftest import ROOT, run_cli, summary
+from conftest import ROOT, run, run_cli, summary
 import nc_dolfinx as nc
 from nc_dolfinx import forms
 from nc_dolfinx.errors import InputError
@@ -119,6 +121,28 @@ def test_a_failing_krylov_solve_refreshes_the_preconditioner(penalty_reference):
     assert stats.converged_reason.startswith("CONVERGED")
     assert stats.pc_setups > 5 and stats.linear_iterations <= 2 * stats.newton_iterations
     assert close(u, penalty_reference)
+
+
+@pytest.mark.parametrize("nprocs", [1, 2, 3])
+def test_cg_on_an_indefinite_preconditioner_gives_way_to_gmres(nprocs):
+    """GAMG's hierarchy can depend on the partition; on one 3D partition of manufactured3d (2 ranks) a coarse
+    level with a vanishing diagonal made the Jacobi-Chebyshev smoother, and with it the preconditioner,
+    indefinite: CG stopped after 2 iterations at every Newton step, and rebuilding the preconditioner rebuilt
+    the same one (50 Newton steps for 1 % of ‖F‖, then the fallbacks). Here a preconditioner indefinite along
+    one vector stands for it (tests/mpi/indefinite_preconditioner.py): the solve goes on with GMRES after the
+    first failed CG solve and converges in a few Newton steps to the default's solution; a user's own
+    ksp_type is kept (and then fails here)."""
+    script = ROOT / "tests" / "mpi" / "indefinite_preconditioner.py"
+    proc = run([script], nprocs)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    default, indefinite = result["default"], result["indefinite"]
+    assert indefinite["reason"].startswith("CONVERGED") and indefinite["recoveries"] == "gmres"
+    assert indefinite["newton"] <= 10 and default["recoveries"] == ""
+    assert indefinite["norm"] == pytest.approx(default["norm"], rel=1e-8)
+    if nprocs == 1:
+        proc = run([script, "cg"], nprocs)
+        assert "SNES diverged" in json.loads(proc.stdout.strip().splitlines()[-1])["indefinite"]["error"]
 
 
 def test_when_nothing_helps_the_error_is_one_clear_line():

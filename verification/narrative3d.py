@@ -82,8 +82,9 @@ here against an error measured in energy: u_h minimises the convex energy Π ove
 E_h = (2 (Π(u_h) − Π_ref))^½ bounds the energy-norm error from above (the contact part of B is of the size of the
 contact term of Remark 9's ẽ). It needs one number per mesh and no transfer between meshes, so it serves the
 non-nested uniform meshes as well as the adaptive ones. Π_ref is the energy of the adaptive mesh of level
-{ref['from_adaptive_level']} {made} ({ref['dofs']} dofs); its own error lowers E_h (E_h² = e_h² − e_ref²), by at most 7 % on the levels with
-≤ 1/20 of its dofs (if e ~ dofs^(−1/3)), and more on the finest compared levels, whose E_h slope is therefore too steep.
+{ref['from_adaptive_level']} {made} ({ref['dofs']} dofs); its own error lowers E_h (E_h² = e_h² − e_ref²), most on the finest compared
+levels, whose E_h slope is therefore too steep and whose η/E_h too large. The equivalence is therefore checked with η's
+share of the reference taken off in the same way, η̂ = (η² − η_ref²)^½: if η = R e on every mesh, η̂/E_h = R on every level.
 """
 
 
