@@ -18,6 +18,14 @@ See docs/api.md and demos/.
 """
 __version__ = "0.2.0"
 
+import os
+
+# Reproducible parallel runs: Debian's PT-SCOTCH partitions with several threads, and the mesh partition
+# (hence GAMG's aggregates, the Newton and Krylov counts, the last digits) then changed from one run of the
+# same command to the next (3 different partitions of a 4x4x4 box in 5 runs on 2 ranks; none in 6 with
+# one thread). Read by SCOTCH when it partitions; an explicit setting in the environment wins.
+os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", "1")
+
 from .adaptive import AdaptSettings, Level, Result, Solution, adapt, solve
 from .binding import Fields, bind, build_domain
 from .cases import case_names, case_path, case_titles
