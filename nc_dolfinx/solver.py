@@ -512,6 +512,7 @@ class NonlinearSolver:
         first = snes.getIterationNumber() == 0
         if not first and self._met_indefinite_preconditioner():
             self._leave_cg()
+            self.left_cg = True  # reported in SolveStats.recoveries
         if self._wants_refresh(first, A):
             # While P is left untouched PETSc sees an unchanged matrix and keeps its PC.
             A.copy(P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
@@ -529,10 +530,11 @@ class NonlinearSolver:
                 and "ksp_type" not in self.user_keys)
 
     def _leave_cg(self):
-        """GMRES from here on in this solve: it needs no definite preconditioner (the stronger_pc fallback's
-        Krylov method, without its cost of a preconditioner per Newton step)."""
-        self.snes.getKSP().setType(PETSc.KSP.Type.GMRES)
-        self.left_cg = True
+        """GMRES instead of CG from here on in this solve: it needs no definite preconditioner (on an
+        indefinite one, and in the stronger_pc fallback)."""
+        ksp = self.snes.getKSP()
+        if ksp.getType() == PETSc.KSP.Type.CG:
+            ksp.setType(PETSc.KSP.Type.GMRES)
 
     def _first_krylov_tolerance(self, A):
         """Eisenstat–Walker's first tolerance (unless given): ew_rtol0_unsupported when J(u_0) holds no contact
@@ -582,9 +584,7 @@ class NonlinearSolver:
         """P = J at every Newton step and GMRES instead of CG (robust to a PC that is not SPD, as seen
         with CG + GAMG on a 3D penalty problem)."""
         self.mode, self.force_refresh = "jacobian", True
-        ksp = self.snes.getKSP()
-        if ksp.getType() == PETSc.KSP.Type.CG:
-            ksp.setType(PETSc.KSP.Type.GMRES)
+        self._leave_cg()
         return self._snes_solve(x, stats, target)
 
     def _retry_continuation(self, x, stats, target, start, factor):
