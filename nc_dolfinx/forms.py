@@ -52,6 +52,11 @@ class NonlinearForms:
     j_n: ufl.Form          # j_n(u, v)
     j_n_jacobian: ufl.Form  # the Gateaux derivative of j_n(u, v) in u
     contact_energy: ufl.Form  # ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1}: Π(u) = ½uᵀKu − Lᵀu + this
+    # For m_n = 1 (else None), the law with all of Γ_C in contact, c_n (u_n − g_0) without (·)_+, for the
+    # solver's bilateral predictor: its Jacobian ∫ c_n du_n v_n and its constant part −∫ c_n g_0 v_n
+    bilateral_jacobian: ufl.Form = None
+    gap_load: ufl.Form = None     # ∫_Γ_C c_n g_0 v_n
+    separation: ufl.Form = None   # ∫_Γ_C (g_0 − u_n)_+: zero iff u closes the gap everywhere on Γ_C
 
 
 def normal_compliance_forms(u, fields):
@@ -67,7 +72,12 @@ def normal_compliance_forms(u, fields):
         L += ufl.inner(g, v) * fields.ds(group_id)
     m = fields.m_n
     contact_energy = fields.c_n / (m + 1) * penetration(u, fields, n) ** (m + 1) * dC
-    return NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
+    pieces = NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
+    if float(m.value) == 1.0:  # (the law is linear where in contact: see NonlinearForms)
+        pieces.bilateral_jacobian = fields.c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC
+        pieces.gap_load = fields.c_n * fields.gap * normal_displacement(v, n) * dC
+        pieces.separation = positive_part(fields.gap - normal_displacement(u, n)) * dC
+    return pieces
 
 
 def energy(u, fields):

@@ -145,6 +145,33 @@ def test_cg_on_an_indefinite_preconditioner_gives_way_to_gmres(nprocs):
         assert "SNES diverged" in json.loads(proc.stdout.strip().splitlines()[-1])["indefinite"]["error"]
 
 
+@pytest.mark.parametrize("nprocs", [1, 2, 3])
+def test_a_gap_the_body_closes_everywhere_takes_the_bilateral_step(nprocs):
+    """The stiff penalty with a gap (c_n/E = 1e4, m_n = 1, g_0 = 0.002(1 + x)): Newton from J(0) = K stopped
+    each step where the next points touched (6 Newton steps with exact Jacobians, 11 with GAMG; 19 in 3D at
+    1e5 dofs). The bilateral predictor solves the law with all of Γ_C in contact first: one step with exact
+    Jacobians, to the solution of that linear problem (solved independently). Where the body closes the gap
+    only in part (g_0 = 2(x − 1/2)²), the predictor is not tried: the same steps as without it. A solve
+    restarted from its own solution takes no step (it ended in a PETSc error: rtol 1 refused)."""
+    proc = run([ROOT / "tests" / "mpi" / "bilateral_predictor.py"], nprocs)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    for key, case in result.items():
+        assert case["on"]["reason"].startswith("CONVERGED") and case["on"]["recoveries"] == ""
+        assert case["again"]["newton"] == 0 and case["again_change"] == 0.0
+    closed = [result["0.002*(1 + x) direct"], result["0.002*(1 + x) iterative"]]
+    assert closed[0]["on"]["newton"] == 1 and closed[0]["off"]["newton"] >= 5
+    assert closed[1]["on"]["pc_setups"] < closed[1]["off"]["pc_setups"]
+    assert closed[1]["on"]["newton"] < closed[1]["off"]["newton"]
+    for case in closed:
+        assert case["on_off"] <= 1e-8 and case["off_bilateral"] <= 1e-8
+    for preset in ("direct", "iterative"):
+        partial = result[f"2*(x - 0.5)**2 {preset}"]
+        # (the same iterates: equal counts; on 3 ranks two identical solves differ by round-off, 1e-14)
+        assert partial["on_off"] <= 1e-12 and partial["on"] == partial["off"]
+        assert partial["off_bilateral"] > 0.1  # (the bilateral guess is wrong there)
+
+
 def test_when_nothing_helps_the_error_is_one_clear_line():
     with pytest.raises(InputError) as err:
         solve_square(1e4, 1, "iterative", {"snes_max_it": 1})
