@@ -615,9 +615,10 @@ class NonlinearSolver:
         ksp.setOperators(self.A, self.P)
         y = rhs.duplicate()
         ew, tolerances = self.snes.getUseEW(), ksp.getTolerances()
-        if ew:  # the preset's first Eisenstat–Walker tolerance (SNES's hook would set the unsupported one)
+        if ew:  # the preset's first Eisenstat–Walker tolerance, relative to ‖F(0)‖ = ‖λL‖ (see below)
             self.snes.setUseEW(False)
-            ksp.setTolerances(rtol=float(self.options.get("snes_ksp_ew_rtol0", 0.3)))
+            ratio = self.load_factor * self.load.norm() / rhs.norm()
+            ksp.setTolerances(rtol=float(self.options.get("snes_ksp_ew_rtol0", 0.3)) * min(1.0, ratio))
         try:
             ksp.solve(rhs, y)
         finally:
