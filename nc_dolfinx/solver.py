@@ -5,8 +5,10 @@
 (generalised for m_n < 2). SNES gets Π as its objective; the line search (a precheck) minimises Π along
 each Newton step, checked against the objective, so no step increases Π. Every CG iterate started from
 zero is a descent direction of Π (∇Π·d = −dᵀJd < 0), so inexact (Eisenstat–Walker) steps and Krylov
-solves stopped at their iteration limit are safe steps too. A failed SNES solve is retried with a
-refreshed, then a stronger preconditioner, then by load continuation, before it ends the run.
+solves stopped at their iteration limit are safe steps too. On a cold start with a gap and m_n = 1 the
+first step may be the bilateral one (all of Γ_C in contact, see _bilateral_predictor). A failed SNES solve
+is retried with a refreshed, then a stronger preconditioner, then by load continuation, before it ends
+the run.
 
 Options are layered (later wins): the preset's defaults, the problem file's ``[solver] petsc_options``,
 then ``-snes_*``/``-ksp_*``/``-pc_*`` flags from the command line. All are written into the PETSc
