@@ -581,7 +581,7 @@ class NonlinearSolver:
         cover, as in Hertz's problem) nothing is done, and Newton runs exactly as without it. Without a
         gap the first step already is the bilateral one (see closed_jacobian)."""
         bilateral_jacobian, gap_load, separation = self.bilateral
-        if bilateral_jacobian is None or not _flag(self.options["bilateral_predictor"]):
+        if bilateral_jacobian is None or not _flag(self.options["bilateral_predictor"]) or x.norm() > 0.0:
             return False
         x.copy(self.trial)
         self.trial.axpy(-1.0, y)
@@ -617,7 +617,9 @@ class NonlinearSolver:
         ksp.setOperators(self.A, self.P)
         y = rhs.duplicate()
         ew, tolerances = self.snes.getUseEW(), ksp.getTolerances()
-        if ew:  # the preset's first Eisenstat–Walker tolerance, relative to ‖F(0)‖ = ‖λL‖ (see below)
+        # The preset's first Eisenstat–Walker tolerance, relative to ‖F(0)‖ = ‖λL‖: c_n g_0 can dominate
+        # rhs, and relative to it the step left ‖F‖ ≈ ‖F(0)‖ (8 Newton steps in all instead of 6).
+        if ew:
             self.snes.setUseEW(False)
             ratio = self.load_factor * self.load.norm() / rhs.norm()
             ksp.setTolerances(rtol=float(self.options.get("snes_ksp_ew_rtol0", 0.3)) * min(1.0, ratio))
