@@ -311,23 +311,30 @@ class NonlinearSolver:
         dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
         self.preset, self.options = resolve_options(options, V.dofmap.index_map_bs, dofs, u.vector.norm() > 0)
         self.user_keys = {key.lstrip("-") for key in options}
-        self.A = self.K.duplicate(copy=True)  # K's sparsity contains Γ_C's
-        self.P = self.K if preconditioner_matrix == "bulk" else self.K.duplicate(copy=True)
-        near_nullspace = rigid_body_modes(V)
-        for matrix in (self.A, self.K) + ((self.P,) if self.P is not self.K else ()):
-            matrix.setNearNullSpace(near_nullspace)
-            matrix.setOption(PETSc.Mat.Option.SPD, True)  # K + j_n'(u): symmetric positive definite
+        self.near_nullspace = rigid_body_modes(V)
+        self._configure(self.K)
+        self.A = self._copy_of_K()  # K's sparsity contains Γ_C's
+        self.P = self.K if preconditioner_matrix == "bulk" else self._copy_of_K()
         self._create_snes()
         self.left_cg = False  # see _leave_cg
+        self.bilateral_candidate = False  # see _bilateral_predictor
+        self.extra_krylov = 0  # Krylov iterations SNES does not count (the predictor's)
         self._reset_preconditioner_state()
+
+    def _configure(self, matrix):
+        matrix.setNearNullSpace(self.near_nullspace)
+        matrix.setOption(PETSc.Mat.Option.SPD, True)  # K + j_n'(u): symmetric positive definite
+
+    def _copy_of_K(self):
+        matrix = self.K.duplicate(copy=True)
+        self._configure(matrix)
+        return matrix
 
     def _assemble_constant_parts(self, forms):
         """Compile the forms; assemble K (Dirichlet rows: identity) and L (Dirichlet rows: zero) once."""
         self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(closed_jacobian(forms.j_n_jacobian))
         self.contact_energy = fem.form(forms.contact_energy)
         self.bilateral = (forms.bilateral_jacobian, forms.gap_load, forms.separation)  # compiled when used
-        self.bilateral_candidate = False
-        self.extra_krylov = 0
         self.K = fem_petsc.assemble_matrix(fem.form(forms.a), bcs=self.bcs)
         self.K.assemble()
         self.load = fem_petsc.assemble_vector(fem.form(forms.L))
@@ -513,10 +520,26 @@ class NonlinearSolver:
         grew = failed or (its > KRYLOV_MIN_ITS and rate > growth * self.best_rate)
         return grew
 
+    def _stiffness_plus(self, matrix, contact_form):
+        """matrix = K + the bilinear Γ_C form (Dirichlet rows: K's identity rows)."""
+        self.K.copy(matrix, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        fem_petsc.assemble_matrix(matrix, contact_form, bcs=self.bcs)
+        matrix.assemble()
+
+    def _rebuild_preconditioner(self, A):
+        """P = A; PETSc rebuilds the preconditioner at the next Krylov solve (while P is left untouched it
+        sees an unchanged matrix and keeps it). If P was K itself ("bulk", left by the stronger_pc
+        fallback), P becomes a matrix of its own first: copying A into it overwrote K, and every later
+        residual then held the foundation twice (a stiff penalty ended "converged" 4.5 % off)."""
+        if self.P is self.K:
+            self.P = self._copy_of_K()
+            self.snes.setJacobian(self._jacobian, self.A, self.P)
+        A.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.force_refresh, self.best_rate = False, math.inf
+        self.pc_setups += 1
+
     def _jacobian(self, snes, x, A, P):
-        self.K.copy(A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        fem_petsc.assemble_matrix(A, self.j_n_jacobian, bcs=self.bcs)
-        A.assemble()
+        self._stiffness_plus(A, self.j_n_jacobian)
         if self.first_jacobian:
             self._first_krylov_tolerance(A)
         first = snes.getIterationNumber() == 0
@@ -524,10 +547,7 @@ class NonlinearSolver:
             self._leave_cg()
             self.left_cg = True  # reported in SolveStats.recoveries
         if self._wants_refresh(first, A):
-            # While P is left untouched PETSc sees an unchanged matrix and keeps its PC.
-            A.copy(P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-            self.force_refresh, self.best_rate = False, math.inf
-            self.pc_setups += 1
+            self._rebuild_preconditioner(A)
 
     def _met_indefinite_preconditioner(self):
         """CG stopped on a preconditioner that is not positive definite. Rebuilding it from the same matrix
@@ -606,13 +626,12 @@ class NonlinearSolver:
 
     def _bilateral_step(self, bilateral_jacobian, rhs):
         """The step y (x − y = 0 − y) of the bilateral law from 0: −(K + ∫ c_n du_n v_n)⁻¹ rhs, rhs = λL +
-        ∫ c_n g_0 v_n, with SNES's KSP and the preconditioner rebuilt from that matrix (A and P: SNES
-        assembles A again at the next step; P is kept if the step is taken)."""
-        self.K.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        fem_petsc.assemble_matrix(self.P, fem.form(bilateral_jacobian), bcs=self.bcs)
-        self.P.assemble()
-        self.P.copy(self.A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.pc_setups += 1
+        ∫ c_n g_0 v_n, with SNES's KSP and the preconditioner rebuilt from that matrix (SNES assembles A
+        again at the next step; P is kept if the step is taken). With preconditioner_matrix "bulk" P is K
+        itself and stays so."""
+        self._stiffness_plus(self.A, fem.form(bilateral_jacobian))
+        if self.mode != "bulk":
+            self._rebuild_preconditioner(self.A)
         ksp = self.snes.getKSP()
         ksp.setOperators(self.A, self.P)
         y = rhs.duplicate()
