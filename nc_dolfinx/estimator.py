@@ -163,7 +163,7 @@ def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kink
         law_squared = law_residual_squared(u, fields, n)
     else:
         law_squared = (forms.contact_pressure(u, fields, n) + physics.normal_stress(s, n)) ** 2
-    dx = ufl.dx(metadata={"quadrature_degree": cell_degree})
+    dx = ufl.dx(metadata={"quadrature_degree": 0 if _constant(f) else cell_degree})  # constant f: exact
     dC = forms.contact_measure(fields, contact_degree)
     form = (_against(f, wv, 0) + ufl.inner(f, f) * wv[gdim] + wv[gdim + 5]) * dx \
         + h * (ufl.inner(sigma_t, sigma_t) * wv[gdim + 1] + law_squared * wv[gdim + 2]) * dC
