@@ -83,7 +83,16 @@ GAMG = {"pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "pc_gamg_reuse_interpo
         # 22, at 3x the set-up time).
         "pc_gamg_use_sa_esteig": False}
 ML = {"pc_ml_reuse_interpolation": True}  # ML reads the rigid-body modes from the matrix (pc_ml_nullspace auto)
-AMG = {"pc_type": "gamg", **SMOOTHERS, **GAMG, **ML}
+# BoomerAMG with the low-complexity settings of classical AMG for 3D (HMIS coarsening, extended+i
+# interpolation truncated to 4 entries per row, one level of aggressive coarsening, strength threshold
+# 0.5; hypre's defaults took twice as long here): scalar AMG on the matrix as it is, without the rigid-body
+# modes (with hypre's nodal coarsening and interpolation of them the set-up took 4x longer). PETSc's
+# default smoother for it, symmetric hybrid Gauss–Seidel ("symmetric-SOR/Jacobi"), keeps the V-cycle
+# symmetric for CG.
+HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
+         "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4,
+         "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.5}
+AMG = {"pc_type": "gamg", **SMOOTHERS, **GAMG, **ML, **HYPRE}
 # Both presets run CG on the Jacobian J = K + j_n'(u) (SPD); the preconditioner is built from J at the
 # initial guess and refreshed when it no longer fits (see NonlinearSolver).
 PRESETS = {
@@ -95,7 +104,7 @@ PRESETS = {
     # The first Krylov solve to 3e-2 (rtol0; PETSc's default 0.3): on a cold start the first step is
     # nearly the answer when the Jacobian already sees the foundation (m_n = 1, see closed_jacobian),
     # and a loose one cost 2-4 more Newton steps on the stiff members of benchmarks/family.py.
-    # pc_type (gamg or ml) is chosen by choose_amg unless given.
+    # pc_type (gamg or hypre) is chosen by choose_amg unless given.
     "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, **AMG, "snes_ksp_ew": True, "snes_ksp_ew_version": 3,
                   "snes_ksp_ew_rtol0": 0.03},
 }
@@ -139,16 +148,22 @@ WARM_DIRECT_MAX_DOFS = 1_000_000
 
 
 def choose_amg(warm_start):
-    """The AMG of the iterative preset: GAMG, cold or warm.
+    """The AMG of the iterative preset: GAMG on a cold start, hypre's BoomerAMG on a warm one.
 
-    ML would set up faster on the adaptive loop's nested levels: PETSc 3.18's GAMG picks its aggregates
-    greedily in order of node degree, which on Plaza-refined meshes (whose vertices come in classes of
-    different degree) leaves 3x as many aggregates and an operator complexity of 3 instead of 1.3 (set-up
-    9.5 s on the unit cube refined to 107,811 dofs against 2.5 s on the generated mesh of the same size,
-    ML 1.1 s). But PETSc 3.18's ML wrapper can fail in parallel (MatWrapML_MPIAIJ: "New nonzero caused a
-    malloc" on one rank, seen on manufactured3d at 2 ranks), which no rank can recover from: the others
-    then wait in a collective. ML stays available as ``-pc_type ml``."""
-    return "gamg"
+    A warm start is the adaptive loop's nested level, on a Plaza-refined mesh. PETSc 3.18's GAMG picks
+    its aggregates greedily in order of node degree, which on such meshes (whose vertices come in classes
+    of different degree) leaves 3x as many aggregates and an operator complexity of 3.1 instead of 1.3:
+    one linear CG solve on the unit cube refined once to 107,811 dofs took 6.3 s against 1.7 s on the
+    generated mesh of the same size. BoomerAMG (classical AMG, HMIS coarsening, extended+i interpolation
+    with at most 4 entries per row, aggressive coarsening on the first level; see HYPRE) does not care:
+    1.6 s on both, 6.3 s against GAMG's 25 s at 3.6e5 dofs; the family's nested 3D levels (benchmarks/
+    family.py) took 1.9–2.2 s instead of 7.0–8.3 s serially, 1.1–1.3 s instead of 2.9–3.3 s on 2 ranks,
+    with 25–27 CG iterations against GAMG's 21–40. On generated meshes GAMG is the faster (cold 3D
+    family members: 2.3–2.9 s against hypre's 2.6–3.5 s). ML would set up fast on refined meshes too,
+    but PETSc 3.18's ML wrapper can fail in parallel (MatWrapML_MPIAIJ: "New nonzero caused a malloc" on
+    one rank, seen on manufactured3d at 2 ranks), which no rank can recover from: the others then wait in
+    a collective. Every choice stays an option: ``-pc_type gamg``, ``-pc_type ml``."""
+    return "hypre" if warm_start else "gamg"
 
 
 def resolve_options(options, dim, dofs, warm_start):
@@ -236,7 +251,7 @@ class SolveStats:
     preset: str = ""                # the preset in force ("auto" resolved)
     pc_setups: int = 0              # times the preconditioning matrix was (re)built
     recoveries: str = ""            # fallbacks taken after a failed SNES solve, e.g. "refresh,continuation"
-    pc_type: str = ""               # the preconditioner in force (cholesky, gamg, ml, or the user's)
+    pc_type: str = ""               # the preconditioner in force (cholesky, gamg, hypre, or the user's)
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
@@ -274,6 +289,9 @@ def closed_jacobian(jacobian):
 # what fires on the family's foundations with m_n > 1 after the first step from J(0) = K (misfit 2.6–44:
 # CG then needed 41–47 iterations in all instead of 55–80). All are global numbers: every rank decides alike.
 KRYLOV_GROWTH = OWN_DEFAULTS["pc_refresh_growth"]
+# MUMPS's INFOG(1) when an internal array sized from the analysis's estimate is too small (-9: the main
+# workspace S, the one seen here); its manual's answer to each is a larger ICNTL(14).
+MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -12, -14, -17, -20)
 KRYLOV_MIN_ITS = 20
 MISFIT_MAX = OWN_DEFAULTS["pc_refresh_misfit"]
 # Line minimisation (see _line_minimisation).
@@ -691,9 +709,26 @@ class NonlinearSolver:
     # Fallbacks after a failed SNES solve, in this order, each from the last good iterate. None costs
     # anything unless a solve fails.
     def _retry_refreshed(self, x, stats, target):
-        """Rebuild P from J at the current iterate (a stale P is the cheap cause of a stall)."""
+        """Rebuild P from J at the current iterate (a stale P is the cheap cause of a stall); if MUMPS ran
+        out of workspace, with a larger one."""
+        self._widen_mumps_workspace()
         self.force_refresh = True
         return self._snes_solve(x, stats, target)
+
+    def _widen_mumps_workspace(self):
+        """After a MUMPS factorisation stopped for lack of workspace, four times the margin MUMPS adds to its
+        estimate (ICNTL(14), in percent; default 20) for the next one. Seen on 3 ranks: the Cholesky
+        factorisation of a nested 3D level (27k dofs) failed with INFOG(1) = -9 at the first Newton step
+        (KSP: DIVERGED_PC_FAILED), and every fallback failed the same way; with ICNTL(14) = 50 it runs."""
+        pc = self.snes.getKSP().getPC()
+        if pc.getType() not in ("cholesky", "lu") or pc.getFactorSolverType() != "mumps":
+            return
+        factor = pc.getFactorMatrix()
+        if factor.getMumpsInfog(1) in MUMPS_WORKSPACE_ERRORS:
+            # an option, since MUMPS reads its controls anew when the factorisation is set up again
+            self.options["mat_mumps_icntl_14"] = 4 * max(factor.getMumpsIcntl(14), 20)
+            set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
+            pc.reset()
 
     def _retry_stronger(self, x, stats, target):
         """P = J at every Newton step and GMRES instead of CG (robust to a PC that is not SPD, as seen
