@@ -88,11 +88,11 @@ ML = {"pc_ml_reuse_interpolation": True}  # ML reads the rigid-body modes from t
 # 0.5; hypre's defaults took twice as long here): scalar AMG on the matrix as it is, without the rigid-body
 # modes (with hypre's nodal coarsening and interpolation of them the set-up took 4x longer). PETSc's
 # default smoother for it, symmetric hybrid Gauss–Seidel ("symmetric-SOR/Jacobi"), keeps the V-cycle
-# symmetric for CG.
+# symmetric for CG. Given with ``-pc_type hypre`` under any preset (not a default: see choose_amg).
 HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
          "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4,
          "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.5}
-AMG = {"pc_type": "gamg", **SMOOTHERS, **GAMG, **ML, **HYPRE}
+AMG = {"pc_type": "gamg", **SMOOTHERS, **GAMG, **ML}
 # Both presets run CG on the Jacobian J = K + j_n'(u) (SPD); the preconditioner is built from J at the
 # initial guess and refreshed when it no longer fits (see NonlinearSolver).
 PRESETS = {
