@@ -29,6 +29,17 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(f"{message} (see --help)")
 
 
+def _whole(text):
+    """A whole number, also in floating-point notation (``--max-dofs 4e5``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value.is_integer():
+        raise argparse.ArgumentTypeError(f"expected a whole number (e.g. 400000 or 4e5), got '{text}'")
+    return int(value)
+
+
 def parser():
     p = _Parser(
         prog=_program_name(),
@@ -41,17 +52,18 @@ def parser():
     p.add_argument("--out", default=None, help="output folder, empty or new (default: results/CASE; "
                                                   "with several cases OUT/CASE)")
     p.add_argument("--refine", choices=("none", "uniform", "adaptive"), default=None)
-    p.add_argument("--levels", type=int, default=None, help="number of levels (solves)")
+    p.add_argument("--levels", type=_whole, default=None, help="number of levels (solves)")
     p.add_argument("--theta", type=float, default=None, help="marking parameter (default 0.5)")
     p.add_argument("--marking", choices=("doerfler", "maximum"), default=None)
-    p.add_argument("--max-dofs", type=int, default=None, help="stop once a level has this many dofs")
+    p.add_argument("--max-dofs", type=_whole, default=None,
+                   help="stop once a level has this many dofs (400000 or 4e5)")
     p.add_argument("--tol", type=float, default=None, help="stop once eta <= TOL")
     p.add_argument("--rtol", type=float, default=None, help="stop once eta <= RTOL * eta(level 0)")
     p.add_argument("--preset", choices=("auto", "direct", "iterative"), default=None,
                    help="linear solver preset for CG on the Jacobian: preconditioned by a MUMPS Cholesky "
                         "factorisation (direct) or GAMG (iterative); auto (default) picks one from the "
                         "mesh's dimension and size")
-    p.add_argument("--load-steps", type=int, default=None, help="increments of the loads on level 0")
+    p.add_argument("--load-steps", type=_whole, default=None, help="increments of the loads on level 0")
     p.add_argument("--compare-uniform", action="store_true",
                    help="with --refine adaptive: also run uniform refinement (same level and dof limits) and "
                         "plot both in convergence.png (history_uniform.csv)")

@@ -280,6 +280,8 @@ CASES = [
     ("single_dash_option", lambda m, t: ["block", *FAST, "-levels", "3"],
      "unknown option '-levels' (did you mean --levels?)"),
     ("bad_option_value", lambda m, t: ["block", *FAST, "--levels", "many"], "argument --levels"),
+    ("fractional_count", lambda m, t: ["block", *FAST, "--max-dofs", "12.5"],
+     "argument --max-dofs: expected a whole number (e.g. 400000 or 4e5), got '12.5'"),
     ("bad_option_choice", lambda m, t: ["block", "--refine", "sideways"], "argument --refine"),
     ("bad_load_steps_option", lambda m, t: ["block", *FAST, "--load-steps", "0"], "solver.load_steps must be >= 1"),
 ]

@@ -135,7 +135,7 @@ def test_empty_folder_is_accepted(tmp_path):
 STOPS = [("tol", ["--tol", "30"], lambda rows, s: rows[-1]["eta"] <= 30 < rows[-2]["eta"], "η = "),
          ("rtol", ["--rtol", "0.4"], lambda rows, s: rows[-1]["eta"] <= 0.4 * rows[0]["eta"] < rows[-2]["eta"],
           "<= rtol·η_0 = 0.4·"),
-         ("max_dofs", ["--max-dofs", "100"], lambda rows, s: rows[-1]["dofs"] >= 100 > rows[-2]["dofs"],
+         ("max_dofs", ["--max-dofs", "1e2"], lambda rows, s: rows[-1]["dofs"] >= 100 > rows[-2]["dofs"],
           ">= max_dofs = 100"),
          ("levels", [], lambda rows, s: len(rows) == 8, "the last level (levels = 8)")]
 
