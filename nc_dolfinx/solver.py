@@ -295,8 +295,8 @@ def closed_jacobian(jacobian):
 # what fires on the family's foundations with m_n > 1 after the first step from J(0) = K (misfit 2.6–44:
 # CG then needed 41–47 iterations in all instead of 55–80). All are global numbers: every rank decides alike.
 KRYLOV_GROWTH = OWN_DEFAULTS["pc_refresh_growth"]
-# MUMPS's INFOG(1) when an internal array sized from the analysis's estimate is too small (-9: the main
-# workspace S, the one seen here); its manual's answer to each is a larger ICNTL(14).
+# MUMPS's INFOG(1) when an internal array sized from the analysis's estimate is too small (-9, the main
+# workspace S, is the one seen here); for each, MUMPS's user guide advises a larger ICNTL(14).
 MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -12, -14, -17, -20)
 KRYLOV_MIN_ITS = 20
 MISFIT_MAX = OWN_DEFAULTS["pc_refresh_misfit"]
@@ -724,8 +724,9 @@ class NonlinearSolver:
     def _widen_mumps_workspace(self):
         """After a MUMPS factorisation stopped for lack of workspace, four times the margin MUMPS adds to its
         estimate (ICNTL(14), in percent; default 20) for the next one. Seen on 3 ranks: the Cholesky
-        factorisation of a nested 3D level (27k dofs) failed with INFOG(1) = -9 at the first Newton step
-        (KSP: DIVERGED_PC_FAILED), and every fallback failed the same way; with ICNTL(14) = 50 it runs."""
+        factorisation of a nested 3D level (6,591 dofs, tests/mpi/nested_level_3d.py) failed with INFOG(1)
+        = -9 at the first Newton step (KSP: DIVERGED_PC_FAILED), and every fallback failed the same way;
+        with ICNTL(14) = 50 it runs."""
         pc = self.snes.getKSP().getPC()
         if pc.getType() not in ("cholesky", "lu") or pc.getFactorSolverType() != "mumps":
             return
