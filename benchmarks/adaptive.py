@@ -62,6 +62,7 @@ def worker(args):
             floor = LinearFloor(problem, solution.domain)
             row["floor"], row["floor_its"], _ = floor.solve()
             row["floor_ml"] = floor.solve(amg="ml")[0]
+            row["floor_hypre"] = floor.solve(amg="hypre")[0]
             floor.destroy()
         row["mem_MB"] = rank_max(comm, max_rss_mb())
         extra[level.number] = row
@@ -78,6 +79,7 @@ def worker(args):
         if "floor" in row:
             row["snes_over_floor"] = row["snes"] / row["floor"]
             row["snes_over_floor_ml"] = row["snes"] / row["floor_ml"]
+            row["snes_over_floor_hypre"] = row["snes"] / row["floor_hypre"]
         rows.append(row)
     for previous, row in zip(rows, rows[1:]):  # nc.refine made this level from the previous one's marks
         row["refine_dolfinx"] = previous.get("refine_dolfinx_next")
@@ -91,7 +93,7 @@ COLUMNS = [("level", "level", "{}"), ("dofs", "dofs", "{}"), ("pc_type", "pc", "
            ("newton", "Nwt", "{}"), ("krylov", "Kry", "{}"), ("pc_setups", "set", "{}"),
            ("setup", "setup", "{:.2f}"), ("snes", "solve", "{:.2f}"), ("floor", "floor", "{:.2f}"),
            ("snes_over_floor", "solve/floor", "{:.2f}"), ("floor_ml", "floor ML", "{:.2f}"),
-           ("snes_over_floor_ml", "(ML)", "{:.2f}"), ("time_estimate", "estim", "{:.2f}"),
+           ("snes_over_floor_ml", "(ML)", "{:.2f}"), ("snes_over_floor_hypre", "(hypre)", "{:.2f}"), ("time_estimate", "estim", "{:.2f}"),
            ("time_mark", "mark", "{:.3f}"), ("estimate_mark_fraction", "(E+M)/solve", "{:.3f}"),
            ("time_refine", "refine", "{:.2f}"), ("refine_dolfinx", "dolfinx", "{:.2f}"),
            ("refine_over_dolfinx", "ratio", "{:.2f}"), ("mem_MB", "MB/rank", "{:.0f}")]
@@ -131,7 +133,7 @@ def main(argv=None):
     p.add_argument("--max-dofs", default="1e6")
     p.add_argument("--levels", type=int, default=60)
     p.add_argument("--theta", type=float, default=0.5)
-    p.add_argument("--floor", action="store_true", help="a linear floor solve on every level (GAMG and ML)")
+    p.add_argument("--floor", action="store_true", help="a linear floor solve on every level (GAMG, ML and BoomerAMG)")
     p.add_argument("--csv")
     p.add_argument("--timeout", type=float, default=7200)
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)

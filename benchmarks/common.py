@@ -19,11 +19,13 @@ PYTHON = "/usr/bin/python3"
 FLOOR_RTOL = 1e-8
 
 # DOLFINx's demo_elasticity.py (v0.5) options, with the tolerance of the floor; the same with Trilinos ML
-# instead of GAMG ("ml"), for context on refined meshes, where PETSc 3.18's GAMG sets up slowly.
+# ("ml") or hypre's BoomerAMG as the solver sets it up on warm starts ("hypre") instead of GAMG, for
+# context on refined meshes, where PETSc 3.18's GAMG sets up slowly.
 FLOOR_OPTIONS = {"ksp_type": "cg", "pc_type": "gamg", "mg_levels_ksp_type": "chebyshev",
                  "mg_levels_pc_type": "jacobi", "mg_levels_esteig_ksp_type": "cg",
                  "mg_levels_ksp_chebyshev_esteig_steps": 20}
-FLOOR_AMG = {"gamg": FLOOR_OPTIONS, "ml": {**FLOOR_OPTIONS, "pc_type": "ml"}}
+FLOOR_AMG = {"gamg": FLOOR_OPTIONS, "ml": {**FLOOR_OPTIONS, "pc_type": "ml"},
+             "hypre": {"ksp_type": "cg", "pc_type": "hypre"}}  # + the solver's HYPRE options
 
 
 # --- processes ------------------------------------------------------------------------------------
@@ -136,14 +138,17 @@ class LinearFloor:
         self.L.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fem_petsc.set_bc(self.L, bcs)
         self.K.setNearNullSpace(rigid_body_modes(V))
+        self.V = V  # the null space's vectors live on V's communicator (see solver.rigid_body_modes)
         self.K.setOption(PETSc.Mat.Option.SPD, True)
 
     def solve(self, rtol=FLOOR_RTOL, norm="preconditioned", amg="gamg"):
         """(wall s, CG iterations, true residual ‖L − Ku‖/‖L‖) of a fresh KSP: PC set-up + solve."""
         from petsc4py import PETSc
+        from nc_dolfinx.solver import HYPRE
         prefix = f"floor_{amg}_"
         options = PETSc.Options(prefix)
-        for key, value in {**FLOOR_AMG[amg], "ksp_rtol": rtol, "ksp_norm_type": norm}.items():
+        extra = HYPRE if amg == "hypre" else {}
+        for key, value in {**FLOOR_AMG[amg], **extra, "ksp_rtol": rtol, "ksp_norm_type": norm}.items():
             options[key] = value
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(prefix)

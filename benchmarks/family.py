@@ -183,11 +183,13 @@ def measure(problem, domain, comm, repeat, initial=None, with_equal_floor=False,
         solution, setup, solve = timed_solve(problem, domain, comm, initial=initial, petsc_options=petsc_options)
         t_floor, floor_its, floor_residual = floor.solve()
         t_floor_ml = floor.solve(amg="ml")[0]
+        t_floor_hypre = floor.solve(amg="hypre")[0]
         if attempt == 0:
             if with_equal_floor:
                 best["t_floor_eq"], best["floor_eq_its"], _ = floor.solve(1e-10, "unpreconditioned")
             continue
-        for key, value in (("t_floor", t_floor), ("t_floor_ml", t_floor_ml), ("t_solve", solve), ("t_setup", setup)):
+        for key, value in (("t_floor", t_floor), ("t_floor_ml", t_floor_ml), ("t_floor_hypre", t_floor_hypre),
+                           ("t_solve", solve), ("t_setup", setup)):
             best[key] = min(best.get(key, math.inf), value)
         stats = solution.stats
         best.update(floor_its=floor_its, floor_residual=floor_residual, newton=stats.newton_iterations,
@@ -196,6 +198,7 @@ def measure(problem, domain, comm, repeat, initial=None, with_equal_floor=False,
     floor.destroy()
     best["ratio"] = best["t_solve"] / best["t_floor"]
     best["ratio_ml"] = best["t_solve"] / best["t_floor_ml"]
+    best["ratio_hypre"] = best["t_solve"] / best["t_floor_hypre"]
     if "t_floor_eq" in best:
         best["ratio_eq"] = best["t_solve"] / best["t_floor_eq"]
     return best, solution
@@ -274,6 +277,7 @@ COLUMNS = [  # (key, header, format)
     ("ratio", "cold/floor", "{:.2f}"), ("ratio_eq", "cold/floor=", "{:.2f}"),
     ("nested_newton", "nest Nwt", "{}"), ("nested_krylov", "Kry", "{}"), ("nested_pc_type", "pc", "{}"),
     ("nested_ratio", "nest/floor", "{:.2f}"), ("nested_ratio_ml", "(ML)", "{:.2f}"),
+    ("nested_ratio_hypre", "(hypre)", "{:.2f}"),
     ("t_legacy", "legacy", "{:.2f}"), ("legacy_newton", "leg Nwt", "{}"), ("speedup_legacy", "x legacy", "{:.1f}"),
     ("legacy_reason", "legacy end", "{}"), ("recoveries", "fallbacks", "{}"),
 ]

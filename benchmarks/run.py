@@ -157,11 +157,13 @@ def floor_columns(problem, domain, prefix=""):
         t, its, residual = floor.solve()
         t_eq, its_eq, _ = floor.solve(1e-10, "unpreconditioned")
         t_ml, its_ml, _ = floor.solve(amg="ml")
+        t_hypre, its_hypre, _ = floor.solve(amg="hypre")
     finally:
         floor.destroy()
     return {f"t_{prefix}linear": t, f"{prefix}linear_its": its, f"{prefix}linear_true_rel_residual": residual,
             f"t_{prefix}linear_eq": t_eq, f"{prefix}linear_eq_its": its_eq, f"t_{prefix}linear_ml": t_ml,
-            f"{prefix}linear_ml_its": its_ml}
+            f"{prefix}linear_ml_its": its_ml, f"t_{prefix}linear_hypre": t_hypre,
+            f"{prefix}linear_hypre_its": its_hypre}
 
 
 def contact_quantities(solution):
@@ -334,6 +336,7 @@ def worker(args):
         row["ratio_nested"] = row["t_nested_solve"] / row["t_nested_linear"]
         row["ratio_nested_eq"] = row["t_nested_solve"] / row["t_nested_linear_eq"]
         row["ratio_nested_ml"] = row["t_nested_solve"] / row["t_nested_linear_ml"]
+        row["ratio_nested_hypre"] = row["t_nested_solve"] / row["t_nested_linear_hypre"]
         _, a2 = adapt_step(nested, comm, False)
         row.update({f"t_nested_{k}": v for k, v in a2.items() if k != "marked"})
         nested_level = row["t_nested_setup"] + row["t_nested_solve"]
@@ -529,7 +532,7 @@ TABLES = {
         ("nested_dofs", "nest dofs", "{}"), ("nested_pc_type", "pc", "{}"), ("t_nested_solve", "nest", "{:.2f}"),
         ("nested_newton", "Nwt", "{}"), ("nested_krylov", "Kry", "{}"), ("t_nested_linear", "lin", "{:.2f}"),
         ("ratio_nested", "nest/lin", "{:.2f}"), ("ratio_nested_eq", "nest/lin=", "{:.2f}"),
-        ("ratio_nested_ml", "(ML)", "{:.2f}"),
+        ("ratio_nested_ml", "(ML)", "{:.2f}"), ("ratio_nested_hypre", "(hypre)", "{:.2f}"),
         ("nested_compiled", "nest cmp", "{}"), ("nested_jit_s", "nest jit", "{:.2f}")],
     "estimate, mark, refine (issue 13: estimate + mark <= 5 % of the solve, refine <= 1.2 x DOLFINx's)": [
         ("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"), ("marked", "marked", "{}"),

@@ -88,7 +88,7 @@ ML = {"pc_ml_reuse_interpolation": True}  # ML reads the rigid-body modes from t
 # 0.5; hypre's defaults took twice as long here): scalar AMG on the matrix as it is, without the rigid-body
 # modes (with hypre's nodal coarsening and interpolation of them the set-up took 4x longer). PETSc's
 # default smoother for it, symmetric hybrid Gauss–Seidel ("symmetric-SOR/Jacobi"), keeps the V-cycle
-# symmetric for CG. Given with ``-pc_type hypre`` under any preset (not a default: see choose_amg).
+# symmetric for CG. Used on warm starts (see choose_amg), and with ``-pc_type hypre`` under any preset.
 HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
          "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4,
          "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.5}
@@ -104,7 +104,7 @@ PRESETS = {
     # The first Krylov solve to 3e-2 (rtol0; PETSc's default 0.3): on a cold start the first step is
     # nearly the answer when the Jacobian already sees the foundation (m_n = 1, see closed_jacobian),
     # and a loose one cost 2-4 more Newton steps on the stiff members of benchmarks/family.py.
-    # pc_type is chosen by choose_amg unless given.
+    # pc_type (gamg, or hypre with HYPRE's options) is chosen by choose_amg unless given.
     "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, **AMG, "snes_ksp_ew": True, "snes_ksp_ew_version": 3,
                   "snes_ksp_ew_rtol0": 0.03},
 }
@@ -148,25 +148,20 @@ WARM_DIRECT_MAX_DOFS = 1_000_000
 
 
 def choose_amg(warm_start):
-    """The AMG of the iterative preset: GAMG, cold or warm.
+    """The AMG of the iterative preset: GAMG on a cold start, hypre's BoomerAMG (options HYPRE) on a warm one.
 
-    On the adaptive loop's nested levels (warm starts, on Plaza-refined meshes) GAMG is slow: PETSc
-    3.18's GAMG picks its aggregates greedily in order of node degree, which on such meshes (whose
-    vertices come in classes of different degree) leaves 3x as many aggregates and an operator
-    complexity of 3.1 instead of 1.3: one linear CG solve on the unit cube refined once to 107,811 dofs
-    took 6.3 s against 1.7 s on the generated mesh of the same size. Two AMGs do not care, and neither is
-    the default, each for a failure no rank can recover from:
-    - ML (1.1 s there): PETSc 3.18's ML wrapper can fail in parallel (MatWrapML_MPIAIJ: "New nonzero
-      caused a malloc" on one rank, seen on manufactured3d at 2 ranks); the others then wait in a
-      collective.
-    - hypre's BoomerAMG with the options HYPRE (1.6 s there, 6.3 s against GAMG's 25 s at 3.6e5 dofs;
-      three of the family's nested 3D levels 1.9–2.2 s instead of 7.0–8.3 s): with PETSc 3.18.5 and
-      hypre 2.26 a process that has run a MUMPS factorisation before its first BoomerAMG set-up crashes
-      in it (segmentation fault in MPI_Comm_size, from HYPRE_IJVectorCreate; 1 and 2 ranks), and the 2D
-      presets factorise with MUMPS. A process that never factorises, e.g. a 3D run from the command
-      line, can take it: ``-pc_type hypre`` (the HYPRE options apply).
-    ``-pc_type ml`` and ``-pc_type hypre`` choose them."""
-    return "gamg"
+    A warm start is the adaptive loop's nested level, on a Plaza-refined mesh. PETSc 3.18's GAMG picks
+    its aggregates greedily in order of node degree, which on such meshes (whose vertices come in classes
+    of different degree) leaves 3x as many aggregates and an operator complexity of 3.1 instead of 1.3:
+    one linear CG solve on the unit cube refined once to 107,811 dofs took 6.3 s against 1.7 s on the
+    generated mesh of the same size. BoomerAMG does not care: 1.6 s on both (6.3 s against GAMG's 25 s at
+    3.6e5 dofs); three of the family's nested 3D levels took 1.9–2.2 s instead of 7.0–8.3 s serially,
+    1.1–1.3 s instead of 2.9–3.3 s on 2 ranks, and the `box` adaptive loop to 3.9e5 dofs on 2 ranks 21 s
+    instead of 45 s (benchmarks/README.md). On generated meshes GAMG is the faster (cold 3D family members:
+    2.3–3.0 s against 2.6–3.5 s). ML sets up fast on refined meshes too, but PETSc 3.18's ML wrapper can
+    fail in parallel (MatWrapML_MPIAIJ: "New nonzero caused a malloc" on one rank, seen on manufactured3d
+    at 2 ranks), which no rank can recover from: ``-pc_type ml`` only. ``-pc_type gamg`` restores GAMG."""
+    return "hypre" if warm_start else "gamg"
 
 
 def resolve_options(options, dim, dofs, warm_start):
@@ -229,7 +224,11 @@ def set_petsc_options(options, prefix=PREFIX):
 
 def rigid_body_modes(V):
     """Near-nullspace of elasticity on the vector space V: the d translations and d(d−1)/2 infinitesimal
-    rotations (2D: 3 modes, 3D: 6), d = the number of displacement components."""
+    rotations (2D: 3 modes, 3D: 6), d = the number of displacement components.
+
+    The vectors live on the communicator of V's index map, which is freed with V: V must outlive the
+    null space (BoomerAMG reads their communicator at its set-up; after V was freed it crashed in
+    MPI_Comm_size, GAMG did not notice). NonlinearSolver keeps V through its ``u``."""
     index_map = V.dofmap.index_map
     bs = V.dofmap.index_map_bs
     x = V.tabulate_dof_coordinates()[:index_map.size_local, :bs]
@@ -257,7 +256,7 @@ class SolveStats:
     preset: str = ""                # the preset in force ("auto" resolved)
     pc_setups: int = 0              # times the preconditioning matrix was (re)built
     recoveries: str = ""            # fallbacks taken after a failed SNES solve, e.g. "refresh,continuation"
-    pc_type: str = ""               # the preconditioner in force (cholesky, gamg, or the user's)
+    pc_type: str = ""               # the preconditioner in force (cholesky, gamg, hypre, or the user's)
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}

@@ -253,11 +253,14 @@ def test_auto_picks_by_dimension_size_and_initial_guess():
                                                    {"pc_gamg_threshold": 0.02}), 2, 100, False)
     assert name == "iterative" and options["ksp_rtol"] == 1e-6 and options["pc_gamg_threshold"] == 0.02
     assert options["pc_type"] == "gamg" and options["snes_linesearch_type"] == "basic"
-    # AMG: GAMG, cold or warm (ML and BoomerAMG each crash in some process: see choose_amg); the user's
-    # pc_type wins, and BoomerAMG then gets the solver's options for it
-    assert resolve_options({}, 3, 10 ** 5, True)[1]["pc_type"] == "gamg"
+    # AMG: GAMG cold, BoomerAMG warm (nested levels on refined meshes: see choose_amg), with the solver's
+    # options for it also when the user chooses it; the user's pc_type wins
+    warm = resolve_options({}, 3, 10 ** 5, True)[1]
+    assert warm["pc_type"] == "hypre" and warm["pc_hypre_boomeramg_coarsen_type"] == "HMIS"
+    assert resolve_options({}, 2, 5_000_000, True)[1]["pc_type"] == "hypre"
     assert resolve_options({}, 3, 10 ** 5, False)[1]["pc_type"] == "gamg"
-    hypre = resolve_options({"pc_type": "hypre"}, 3, 10 ** 5, True)[1]
+    assert resolve_options({"pc_type": "gamg"}, 3, 10 ** 5, True)[1]["pc_type"] == "gamg"
+    hypre = resolve_options({"pc_type": "hypre"}, 3, 10 ** 5, False)[1]
     assert hypre["pc_type"] == "hypre" and hypre["pc_hypre_boomeramg_coarsen_type"] == "HMIS"
     hypre = resolve_options({"pc_type": "hypre", "pc_hypre_boomeramg_P_max": 2}, 2, 100, False)[1]
     assert hypre["pc_hypre_boomeramg_agg_nl"] == 1 and hypre["pc_hypre_boomeramg_P_max"] == 2
@@ -360,14 +363,15 @@ def warm_start_runs():
 
 
 @pytest.mark.parametrize("nprocs", [1, 2, 3])
-def test_a_nested_3d_level_reaches_the_direct_solution(warm_start_runs, nprocs):
-    """A nested level in 3D (a warm start on a Plaza-refined mesh) with the defaults (CG + GAMG) converges
-    without a fallback to the solution MUMPS's Cholesky gives on the same level (to 1e-8 of the largest
-    displacement), and its elastic energy is the same on 1, 2 and 3 ranks. The direct solve of that level needs MUMPS's workspace widened on 3
+def test_a_nested_3d_level_takes_boomeramg_and_reaches_the_direct_solution(warm_start_runs, nprocs):
+    """A nested level in 3D (a warm start on a Plaza-refined mesh) is preconditioned by hypre's BoomerAMG
+    (GAMG aggregates such meshes poorly: see choose_amg), converges without a fallback to the solution
+    MUMPS's Cholesky gives on the same level (to 1e-8 of the largest displacement; in the same process,
+    after MUMPS), and its elastic energy is the same on 1, 2 and 3 ranks. The direct solve of that level needs MUMPS's workspace widened on 3
     ranks (INFOG(1) = -9 at the first factorisation; every fallback failed the same way before)."""
     result = warm_start_runs[nprocs]
     assert result["direct_reason"].startswith("CONVERGED") and result["direct_recoveries"] in ("", "refresh")
-    assert result["preset"] == "iterative" and result["pc_type"] == "gamg"
+    assert result["preset"] == "iterative" and result["pc_type"] == "hypre"
     assert result["reason"].startswith("CONVERGED") and result["recoveries"] == ""
     assert result["difference"] <= 1e-8
     assert result["energy"] == pytest.approx(warm_start_runs[1]["energy"], rel=1e-9)

@@ -26,8 +26,8 @@ problem = nc.Problem.from_dict(DATA, "cube")
 parent = nc.build_domain(problem, COMM)
 u_parent = nc.solve(problem, parent).u
 child = nc.refine(parent)
-auto = nc.solve(problem, child, initial=u_parent)
 direct = nc.solve(problem.replace({"solver.preset": "direct"}), child, initial=u_parent)
+auto = nc.solve(problem, child, initial=u_parent)  # (BoomerAMG after MUMPS, in one process)
 s = auto.stats
 result = {"pc_type": s.pc_type, "preset": s.preset, "newton": s.newton_iterations, "krylov": s.linear_iterations,
           "reason": s.converged_reason, "recoveries": s.recoveries,
