@@ -156,11 +156,12 @@ def choose_amg(warm_start):
     one linear CG solve on the unit cube refined once to 107,811 dofs took 6.3 s against 1.7 s on the
     generated mesh of the same size. BoomerAMG does not care: 1.6 s on both (6.3 s against GAMG's 25 s at
     3.6e5 dofs); three of the family's nested 3D levels took 1.9–2.2 s instead of 7.0–8.3 s serially,
-    1.1–1.3 s instead of 2.9–3.3 s on 2 ranks, and the `box` adaptive loop to 3.9e5 dofs on 2 ranks 21 s
-    instead of 45 s (benchmarks/README.md). On generated meshes GAMG is the faster (cold 3D family members:
-    2.3–3.0 s against 2.6–3.5 s). ML sets up fast on refined meshes too, but PETSc 3.18's ML wrapper can
-    fail in parallel (MatWrapML_MPIAIJ: "New nonzero caused a malloc" on one rank, seen on manufactured3d
-    at 2 ranks), which no rank can recover from: ``-pc_type ml`` only. ``-pc_type gamg`` restores GAMG."""
+    1.1–1.3 s instead of 2.9–3.3 s on 2 ranks, and the `box` adaptive loop to 3.9e5 dofs on 2 ranks 23 s
+    instead of 45 s (benchmarks/README.md); in 2D (the square refined to 132,098 dofs) 0.38 s against
+    0.92 s. On generated meshes GAMG is the faster (cold 3D family members: 2.3–3.0 s against 2.6–3.5 s).
+    ML sets up fast on refined meshes too, but PETSc 3.18's ML wrapper can fail in parallel
+    (MatWrapML_MPIAIJ: "New nonzero caused a malloc" on one rank, seen on manufactured3d at 2 ranks),
+    which no rank can recover from: ``-pc_type ml`` only. ``-pc_type gamg`` restores GAMG."""
     return "hypre" if warm_start else "gamg"
 
 
