@@ -25,7 +25,10 @@ FLOOR_OPTIONS = {"ksp_type": "cg", "pc_type": "gamg", "mg_levels_ksp_type": "che
                  "mg_levels_pc_type": "jacobi", "mg_levels_esteig_ksp_type": "cg",
                  "mg_levels_ksp_chebyshev_esteig_steps": 20}
 FLOOR_AMG = {"gamg": FLOOR_OPTIONS, "ml": {**FLOOR_OPTIONS, "pc_type": "ml"},
-             "hypre": {"ksp_type": "cg", "pc_type": "hypre"}}  # + the solver's HYPRE options
+             "hypre": {"ksp_type": "cg", "pc_type": "hypre", "pc_hypre_type": "boomeramg",  # as the solver's
+                       "pc_hypre_boomeramg_coarsen_type": "HMIS", "pc_hypre_boomeramg_interp_type": "ext+i",
+                       "pc_hypre_boomeramg_P_max": 4, "pc_hypre_boomeramg_agg_nl": 1,
+                       "pc_hypre_boomeramg_strong_threshold": 0.5}}
 
 
 # --- processes ------------------------------------------------------------------------------------
@@ -144,11 +147,9 @@ class LinearFloor:
     def solve(self, rtol=FLOOR_RTOL, norm="preconditioned", amg="gamg"):
         """(wall s, CG iterations, true residual ‖L − Ku‖/‖L‖) of a fresh KSP: PC set-up + solve."""
         from petsc4py import PETSc
-        from nc_dolfinx.solver import HYPRE
         prefix = f"floor_{amg}_"
         options = PETSc.Options(prefix)
-        extra = HYPRE if amg == "hypre" else {}
-        for key, value in {**FLOOR_AMG[amg], **extra, "ksp_rtol": rtol, "ksp_norm_type": norm}.items():
+        for key, value in {**FLOOR_AMG[amg], "ksp_rtol": rtol, "ksp_norm_type": norm}.items():
             options[key] = value
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(prefix)
