@@ -367,8 +367,9 @@ def test_a_nested_3d_level_takes_boomeramg_and_reaches_the_direct_solution(warm_
     """A nested level in 3D (a warm start on a Plaza-refined mesh) is preconditioned by hypre's BoomerAMG
     (GAMG aggregates such meshes poorly: see choose_amg), converges without a fallback to the solution
     MUMPS's Cholesky gives on the same level (to 1e-8 of the largest displacement; in the same process,
-    after MUMPS), and its elastic energy is the same on 1, 2 and 3 ranks. The direct solve of that level needs MUMPS's workspace widened on 3
-    ranks (INFOG(1) = -9 at the first factorisation; every fallback failed the same way before)."""
+    after MUMPS), and its elastic energy is the same on 1, 2 and 3 ranks. The direct solve of that level
+    needs MUMPS's workspace widened on 3 ranks (INFOG(1) = -9 at the first factorisation; every fallback
+    failed the same way before)."""
     result = warm_start_runs[nprocs]
     assert result["direct_reason"].startswith("CONVERGED") and result["direct_recoveries"] in ("", "refresh")
     assert result["preset"] == "iterative" and result["pc_type"] == "hypre"
