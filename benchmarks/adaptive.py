@@ -93,7 +93,8 @@ COLUMNS = [("level", "level", "{}"), ("dofs", "dofs", "{}"), ("pc_type", "pc", "
            ("newton", "Nwt", "{}"), ("krylov", "Kry", "{}"), ("pc_setups", "set", "{}"),
            ("setup", "setup", "{:.2f}"), ("snes", "solve", "{:.2f}"), ("floor", "floor", "{:.2f}"),
            ("snes_over_floor", "solve/floor", "{:.2f}"), ("floor_ml", "floor ML", "{:.2f}"),
-           ("snes_over_floor_ml", "(ML)", "{:.2f}"), ("snes_over_floor_hypre", "(hypre)", "{:.2f}"), ("time_estimate", "estim", "{:.2f}"),
+           ("snes_over_floor_ml", "(ML)", "{:.2f}"), ("snes_over_floor_hypre", "(hypre)", "{:.2f}"),
+           ("time_estimate", "estim", "{:.2f}"),
            ("time_mark", "mark", "{:.3f}"), ("estimate_mark_fraction", "(E+M)/solve", "{:.3f}"),
            ("time_refine", "refine", "{:.2f}"), ("refine_dolfinx", "dolfinx", "{:.2f}"),
            ("refine_over_dolfinx", "ratio", "{:.2f}"), ("mem_MB", "MB/rank", "{:.0f}")]
@@ -133,7 +134,8 @@ def main(argv=None):
     p.add_argument("--max-dofs", default="1e6")
     p.add_argument("--levels", type=int, default=60)
     p.add_argument("--theta", type=float, default=0.5)
-    p.add_argument("--floor", action="store_true", help="a linear floor solve on every level (GAMG, ML and BoomerAMG)")
+    p.add_argument("--floor", action="store_true",
+                   help="a linear floor solve on every level (GAMG, ML and BoomerAMG)")
     p.add_argument("--csv")
     p.add_argument("--timeout", type=float, default=7200)
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)

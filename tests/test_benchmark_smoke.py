@@ -80,3 +80,16 @@ def test_forms_compiled_once_per_run(smoke, problem):
     r = next(r for r in rows if r["problem"] == problem)
     assert r["compiled"] > 0                 # the empty cache: level 0 compiles its forms
     assert r["nested_compiled"] == 0, r["nested_compiled"]  # the next level of the same run reuses them
+
+
+def test_the_boomeramg_floor_is_set_up_as_the_solver_sets_it_up():
+    """benchmarks/ use the public API only, so the BoomerAMG floor spells out its options: they must be the
+    solver's (solver.HYPRE), or the "(hypre)" columns would compare against another preconditioner."""
+    import importlib.util
+    from nc_dolfinx.solver import HYPRE
+    spec = importlib.util.spec_from_file_location("benchmarks_common", ROOT / "benchmarks" / "common.py")
+    common = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(common)
+    floor = common.FLOOR_AMG["hypre"]
+    assert floor["pc_type"] == "hypre" and floor["ksp_type"] == "cg"
+    assert {key: floor.get(key) for key in HYPRE} == HYPRE
