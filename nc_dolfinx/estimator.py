@@ -46,10 +46,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import ufl
 from mpi4py import MPI
-from petsc4py import PETSc
 
+import dolfinx
 from dolfinx import fem
-from dolfinx.fem import petsc as fem_petsc
 
 from . import forms, physics
 from .estimator_geometry import cell_diameters, facet_diameters, owned_values_with_ghosts, patch_sum, slot_tags
@@ -87,12 +86,10 @@ def assemble_cellwise(form, space):
     assembled against a DG0 test function, a form's integrand summed cell by cell — how the local
     indicators of Definition 5 are computed (a cell's value includes what its facets' integrals give it;
     ghost contributions are added to the owners)."""
-    vec = fem_petsc.assemble_vector(fem.form(form))
-    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    vec = fem.assemble_vector(fem.form(form))  # a DOLFINx vector: no PETSc object, no copy of its values
+    vec.scatter_reverse(dolfinx.la.ScatterMode.add)
     n_owned = space.dofmap.index_map.size_local * space.dofmap.index_map_bs
-    values = vec.array[:n_owned].copy()
-    vec.destroy()
-    return values.reshape(-1, space.dofmap.index_map_bs)
+    return vec.array[:n_owned].reshape(-1, space.dofmap.index_map_bs)  # (a view keeps vec alive)
 
 
 def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kinks=None):
