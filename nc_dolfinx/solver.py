@@ -68,12 +68,30 @@ OWN_DEFAULTS = {
     "bilateral_predictor": True,   # see _bilateral_predictor
 }
 
-# Smoothed-aggregation AMG for elasticity, set up as in DOLFINx's elasticity demo: the rigid-body
-# near-nullspace (on the matrices, see NonlinearSolver), the SPD flag, Chebyshev/Jacobi smoothers with
-# CG-based eigenvalue estimates (CG is the right estimator for an SPD operator and needs fewer steps than
-# GMRES), and the interpolation kept when the preconditioning matrix is refreshed within a level (only
-# the Galerkin products and smoothers are redone). Two implementations, both read by PCMG's smoothers
-# (the mg_levels_ options): PETSc's GAMG and Trilinos ML (``pc_type ml``); see choose_amg.
+# hypre's BoomerAMG, the iterative preset's preconditioner (cold and warm starts, 2D and 3D): classical AMG
+# with low-complexity settings (HMIS coarsening, extended+i interpolation truncated to 4 entries per row,
+# aggressive coarsening on the first level(s)), scalar AMG on the matrix as it is, without the rigid-body
+# modes (hypre's nodal coarsening and interpolation of them set up 4x slower). The strength threshold is
+# hypre's recommendation per dimension, 0.25 in 2D and 0.5 in 3D. The smoother is PETSc's default for it,
+# symmetric hybrid Gauss–Seidel, in 2D; in 3D a Chebyshev polynomial (parallel as it is serial) with two
+# levels of aggressive coarsening: more CG iterations, but each ~40 % cheaper and the set-up ~40 % faster.
+# Measured (benchmarks/README.md, "BoomerAMG on every level"): against GAMG set up as DOLFINx's elasticity
+# demo does (below), one linear solve of the family's 3D cube to the same accuracy 2.6 s instead of 3.3 s
+# (2D square 0.66 s instead of 1.36 s); GAMG needs 55–61 CG iterations on the two-material body where
+# BoomerAMG needs 23–26; and on Plaza-refined meshes (the adaptive loop's nested levels) PETSc 3.18's GAMG
+# aggregates poorly (operator complexity 3.1 instead of 1.3: 6.3 s against 1.6 s on the cube refined once).
+HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
+         "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4}
+HYPRE_BY_DIM = {2: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.25},
+                3: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 2, "pc_hypre_boomeramg_strong_threshold": 0.5,
+                    "pc_hypre_boomeramg_relax_type_all": "Chebyshev"}}
+# Smoothed-aggregation AMG for elasticity (``-pc_type gamg``, or Trilinos ML: ``-pc_type ml``), set up as in
+# DOLFINx's elasticity demo: the rigid-body near-nullspace (on the matrices, see NonlinearSolver), the SPD
+# flag, Chebyshev/Jacobi smoothers with CG-based eigenvalue estimates (CG is the right estimator for an
+# SPD operator and needs fewer steps than GMRES), and the interpolation kept when the preconditioning
+# matrix is refreshed within a level (only the Galerkin products and smoothers are redone). ML sets up
+# fast on refined meshes too, but PETSc 3.18's ML wrapper can fail in parallel (MatWrapML_MPIAIJ: "New
+# nonzero caused a malloc" on one rank, seen on manufactured3d at 2 ranks), which no rank recovers from.
 SMOOTHERS = {"mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi",
              "mg_levels_esteig_ksp_type": "cg", "mg_levels_ksp_chebyshev_esteig_steps": 10}
 GAMG = {"pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "pc_gamg_reuse_interpolation": True,
@@ -83,30 +101,28 @@ GAMG = {"pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "pc_gamg_reuse_interpo
         # 22, at 3x the set-up time).
         "pc_gamg_use_sa_esteig": False}
 ML = {"pc_ml_reuse_interpolation": True}  # ML reads the rigid-body modes from the matrix (pc_ml_nullspace auto)
-# BoomerAMG with the low-complexity settings of classical AMG for 3D (HMIS coarsening, extended+i
-# interpolation truncated to 4 entries per row, one level of aggressive coarsening, strength threshold
-# 0.5; hypre's defaults took twice as long here): scalar AMG on the matrix as it is, without the rigid-body
-# modes (with hypre's nodal coarsening and interpolation of them the set-up took 4x longer). PETSc's
-# default smoother for it, symmetric hybrid Gauss–Seidel ("symmetric-SOR/Jacobi"), keeps the V-cycle
-# symmetric for CG. Used on warm starts (see choose_amg), and with ``-pc_type hypre`` under any preset.
-HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
-         "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4,
-         "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.5}
-AMG = {"pc_type": "gamg", **SMOOTHERS, **GAMG, **ML}
+
+
+def preconditioner_settings(pc_type, dim):
+    """The settings a preconditioner comes with, whichever layer chose it: BoomerAMG's for the dimension,
+    GAMG's and ML's (DOLFINx's elasticity demo), none for others."""
+    return {"hypre": HYPRE_BY_DIM[dim], "gamg": {**SMOOTHERS, **GAMG}, "ml": {**SMOOTHERS, **ML}}.get(pc_type, {})
+
+
 # Both presets run CG on the Jacobian J = K + j_n'(u) (SPD); the preconditioner is built from J at the
 # initial guess and refreshed when it no longer fits (see NonlinearSolver).
 PRESETS = {
     # a Cholesky factorisation (MUMPS, AMF ordering: the fastest measured here); exact Newton steps
     "direct": {"ksp_type": "cg", "ksp_rtol": 1e-10, "pc_type": "cholesky",
                "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_7": 2},
-    # Eisenstat–Walker inexact Newton (version 3: its safeguard stops the last system at the SNES target)
-    # halved the nonlinear solve time with GAMG in benchmarks/.
-    # The first Krylov solve to 3e-2 (rtol0; PETSc's default 0.3): on a cold start the first step is
-    # nearly the answer when the Jacobian already sees the foundation (m_n = 1, see closed_jacobian),
-    # and a loose one cost 2-4 more Newton steps on the stiff members of benchmarks/family.py.
-    # pc_type (gamg, or hypre with HYPRE's options) is chosen by choose_amg unless given.
-    "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, **AMG, "snes_ksp_ew": True, "snes_ksp_ew_version": 3,
-                  "snes_ksp_ew_rtol0": 0.03},
+    # Inexact Newton with Eisenstat–Walker's forcing terms (version 3, applied by Forcing). The first Krylov
+    # solve to 3e-2 (rtol0; PETSc's default 0.3): on a cold start the first step is nearly the answer when
+    # the Jacobian already sees the foundation (m_n = 1, see closed_jacobian), and a loose one cost 2-4 more
+    # Newton steps on the stiff members of benchmarks/family.py. CG measures the true residual ‖F + J y‖
+    # (as cheap in CG as its preconditioned norm), so that Forcing's tolerances and Newton's ‖F‖ speak of
+    # the same quantity.
+    "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, "ksp_norm_type": "unpreconditioned", "pc_type": "hypre",
+                  "snes_ksp_ew": True, "snes_ksp_ew_version": 3, "snes_ksp_ew_rtol0": 0.03},
 }
 PRESET_NAMES = ("auto", *PRESETS)
 PRECONDITIONER_MATRICES = ("auto", "bulk", "jacobian")
@@ -125,7 +141,7 @@ def choose_preset(dim, dofs, warm_start):
     """The linear strategy of ``preset = "auto"``, from what is known before solving (measured in
     benchmarks/README.md, "auto"):
 
-    - 3D: CG + AMG (see choose_amg) — a factorisation of the whole stiffness costs far more time and
+    - 3D: CG + AMG (BoomerAMG, see HYPRE_BY_DIM) — a factorisation of the whole stiffness costs far more time and
       memory there.
     - 2D, up to COLD_DIRECT_MAX_DOFS: MUMPS Cholesky; both take < 0.05 s there, and exact Newton steps
       make the Newton counts independent of the partition.
@@ -147,41 +163,19 @@ COLD_DIRECT_MAX_DOFS = 10_000
 WARM_DIRECT_MAX_DOFS = 1_000_000
 
 
-def choose_amg(warm_start):
-    """The AMG of the iterative preset: GAMG on a cold start, hypre's BoomerAMG (options HYPRE) on a warm one.
-
-    A warm start is the adaptive loop's nested level, on a Plaza-refined mesh. PETSc 3.18's GAMG picks
-    its aggregates greedily in order of node degree, which on such meshes (whose vertices come in classes
-    of different degree) leaves 3x as many aggregates and an operator complexity of 3.1 instead of 1.3:
-    one linear CG solve on the unit cube refined once to 107,811 dofs took 6.3 s against 1.7 s on the
-    generated mesh of the same size. BoomerAMG does not care: 1.6 s on both (6.3 s against GAMG's 25 s at
-    3.6e5 dofs); three of the family's nested 3D levels took 1.9–2.2 s instead of 7.0–8.3 s serially,
-    1.1–1.3 s instead of 2.9–3.3 s on 2 ranks, and the `box` adaptive loop to 3.9e5 dofs on 2 ranks 23 s
-    instead of 45 s (benchmarks/README.md); in 2D (the square refined to 132,098 dofs) 0.38 s against
-    0.92 s. On generated meshes GAMG is the faster (cold 3D family members: 2.3–3.0 s against 2.6–3.5 s).
-    ML sets up fast on refined meshes too, but PETSc 3.18's ML wrapper can fail in parallel
-    (MatWrapML_MPIAIJ: "New nonzero caused a malloc" on one rank, seen on manufactured3d at 2 ranks),
-    which no rank can recover from: ``-pc_type ml`` only. ``-pc_type gamg`` restores GAMG."""
-    return "hypre" if warm_start else "gamg"
-
-
 def resolve_options(options, dim, dofs, warm_start):
-    """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved
-    (the preset by choose_preset, the iterative preset's AMG by choose_amg)."""
+    """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved by
+    choose_preset, under the settings of the preconditioner in force (preconditioner_settings)."""
     user = {k.lstrip("-"): v for k, v in options.items()}
     preset = str(user.pop("preset", "auto"))
     if preset not in PRESET_NAMES:
         raise InputError(f"solver preset must be one of {', '.join(PRESET_NAMES)}, got '{preset}'")
     name = choose_preset(dim, dofs, warm_start) if preset == "auto" else preset
     resolved = {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name]}
-    if name == "iterative":
-        resolved["pc_type"] = choose_amg(warm_start)
     for key in OWN_DEFAULTS.keys() & user.keys():
         _check_own_option(key, user[key])
     options = {**resolved, **user}
-    if options.get("pc_type") == "hypre":  # the user's choice, under any preset: with HYPRE's settings
-        options = {**HYPRE, **options}
-    return name, options
+    return name, {**preconditioner_settings(options.get("pc_type"), dim), **options}
 
 
 def _check_own_option(key, value):
@@ -306,6 +300,68 @@ LINE_TOL = 0.1
 OBJECTIVE_ROUNDOFF = 1e-10
 
 
+class Forcing:
+    """The Krylov tolerance η_k of each Newton step (inexact Newton: ‖F_k + J_k y‖ <= η_k ‖F_k‖), in place of
+    PETSc's own Eisenstat–Walker code and with its parameters (``-snes_ksp_ew_version``, ``_rtol0``,
+    ``_rtolmax``, ``_gamma``, ``_alpha``, ``_alpha2``, ``_threshold``), plus two rules that read the
+    *remainder* of the last step, ρ = ‖F_k − (F_{k−1} − J_{k−1} y)‖: what its linear model did not
+    predict (known when the step was taken in full):
+
+    - Finish: if Newton's quadratic convergence from there, ρ (‖F_k‖/‖F_{k−1}‖)², leaves the next step's
+      remainder below half the target, the next system is solved to half the target, and that step ends
+      the solve. Where the law is linear across the steps (m_n = 1 with a settled contact set) ρ ≈ 0:
+      2 Newton steps instead of 4–5 on the family's m_n = 1 members; on the others the last step no longer
+      stops just above the target (seen: 1.6e-12 against 2e-13, one more Newton step).
+    - Otherwise η_k <= ρ/‖F_{k−1}‖ (Eisenstat–Walker's choice 1): no looser than the last step's
+      nonlinearity warrants.
+
+    No system is solved beyond half the target (the Krylov solve's absolute tolerance, in the true residual
+    the iterative preset measures): version 3's guard against oversolving, aimed below the target."""
+
+    def __init__(self, params):
+        self.params = params  # SNES.getParamsEW()
+        self.rtol0, self.target, self.last = params["rtol_0"], 0.0, None
+
+    def start(self, target):
+        """A new SNES solve towards ‖F‖ <= target."""
+        self.target, self.last = target, None
+
+    @property
+    def absolute(self):
+        """The Krylov solve's absolute tolerance: half the Newton target."""
+        return 0.5 * self.target
+
+    def tolerance(self, fnorm, remainder=None):
+        """η_k for the step from an iterate with ‖F‖ = ``fnorm``; ``remainder``: ρ of the step that led
+        there, if it was taken in full (else None)."""
+        p = self.params
+        if self.last is None:
+            eta = self.rtol0
+        else:
+            f_prev, eta_prev = self.last
+            eta = self._eisenstat_walker(fnorm, f_prev, eta_prev, remainder)
+            if remainder is not None:
+                if remainder * (fnorm / f_prev) ** 2 <= self.absolute:
+                    eta = 0.0  # the absolute tolerance decides
+                eta = min(eta, remainder / f_prev)
+        eta = min(eta, p["rtol_max"])
+        self.last = (fnorm, eta)
+        return eta
+
+    def _eisenstat_walker(self, fnorm, f_prev, eta_prev, remainder):
+        """PETSc's versions 1–3 (SNESKSPSetParametersEW), version 3 without its oversolving guard."""
+        p = self.params
+        if p["version"] == 1:
+            if remainder is None:
+                return eta_prev
+            eta, guard = remainder / f_prev, eta_prev ** p["alpha2"]
+        else:
+            eta, guard = p["gamma"] * (fnorm / f_prev) ** p["alpha"], p["gamma"] * eta_prev ** p["alpha"]
+            if p["version"] == 3:
+                return min(self.rtol0, max(eta, guard))
+        return max(eta, guard) if guard > p["threshold"] else eta
+
+
 class NonlinearSolver:
     """SNES for (7): F(u) = K u + j_n(u, ·) − λ L = 0, J(u) = K + j_n'(u), homogeneous Dirichlet BCs.
 
@@ -365,9 +421,10 @@ class NonlinearSolver:
         self.load.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fem_petsc.set_bc(self.load, self.bcs)
         self.load_factor = 1.0
+        self.xKx = (None, None, 0.0)  # (x's handle, its state, xᵀKx): see _residual
         self.contact = fem_petsc.create_vector(self.j_n)
         self.b = fem_petsc.create_vector(self.j_n)
-        self.work, self.trial = self.K.createVecRight(), self.u.vector.copy()
+        self.work, self.trial, self.predicted = self.K.createVecRight(), self.u.vector.copy(), self.K.createVecRight()
 
     def _create_snes(self):
         set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
@@ -381,6 +438,9 @@ class NonlinearSolver:
         ksp = self.snes.getKSP()
         ksp.setFromOptions()
         ksp.setConvergenceHistory(reset=True)  # for the Krylov growth (see _krylov_grew)
+        # Eisenstat–Walker's parameters as PETSc read them, applied by Forcing instead of PETSc's code
+        self.forcing = Forcing(self.snes.getParamsEW()) if self.snes.getUseEW() else None
+        self.snes.setUseEW(False)
         self.atol_given = "snes_atol" in self.options
         self.rtol, self.atol, _, _ = self.snes.getTolerances()  # SNES gets them as one target (_target)
 
@@ -404,6 +464,7 @@ class NonlinearSolver:
     def _residual(self, snes, x, b):
         contact = self._assemble_contact(x)
         self.K.mult(x, b)  # Dirichlet rows: b = (K x)_D = x_D
+        self.xKx = (x.handle, x.stateGet(), x.dot(b))  # for the line search's values of Π at x
         b.axpy(1.0, contact)
         b.axpy(-self.load_factor, self.load)
 
@@ -425,13 +486,29 @@ class NonlinearSolver:
         the line search stalled at ‖F‖ ≈ 1e-4 ‖F_0‖ on the 3D box (65 Newton steps and three fallbacks).
         Zeroing y_D keeps x_D = 0 and leaves F·y (F_D = 0) unchanged: y stays a descent direction of Π."""
         fem_petsc.set_bc(y, self.bcs)
+        self._predict(y)
         if self.bilateral_candidate:
             self.bilateral_candidate = False
             if self._bilateral_predictor(x, y):
+                self.predicted_full_step = False
                 return True
-        if _flag(self.options["line_minimisation"]):
-            self._line_minimisation(x, y)
+        scaled = _flag(self.options["line_minimisation"]) and self._line_minimisation(x, y)
+        self.predicted_full_step = not scaled
         return True
+
+    def _predict(self, y):
+        """F at x − y by the linear model, F(x) − J y, kept for Forcing (one mat-vec)."""
+        if self.forcing is not None:
+            self.A.mult(y, self.predicted)
+            self.predicted.aypx(-1.0, self.snes.getFunction()[0])
+
+    def _remainder(self):
+        """‖F − (the linear model's prediction)‖ at the current iterate, if the last step was taken in full."""
+        if not self.predicted_full_step:
+            return None
+        self.predicted_full_step = False
+        self.predicted.aypx(-1.0, self.snes.getFunction()[0])
+        return self.predicted.norm()
 
     def _line_minimisation(self, x, y):
         """The line search: scale the Newton step y (SNES steps to x − λy) to a minimiser λ ∈ (0, 1] of Π.
@@ -445,18 +522,25 @@ class NonlinearSolver:
         """
         self.K.mult(y, self.work)
         yKy, xKy = y.dot(self.work), x.dot(self.work)
-        Ly = self.load_factor * self.load.dot(y)
+        Lx, Ly = (self.load_factor * self.load.dot(v) for v in (x, y))
 
         def slope(lam):
             x.copy(self.trial)
             self.trial.axpy(-lam, y)
             return -(xKy - lam * yKy - Ly + self._assemble_contact(self.trial).dot(y))
 
+        def objective(lam):  # Π(x − λy), its quadratic part from the products above: no mat-vec
+            x.copy(self.trial)
+            self.trial.axpy(-lam, y)
+            self._update(self.trial)
+            contact = self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
+            return 0.5 * (self._xKx(x) - 2 * lam * xKy + lam ** 2 * yKy) - Lx + lam * Ly + contact
+
         s0, lam = slope(0.0), 1.0
         s = slope(lam) if s0 < 0.0 else 0.0
         if s > WOLFE_ETA * abs(s0):
             lam, s = self._slope_root(slope, s0, s)
-        lam = self._objective_decreases(x, y, lam, 0.5 * lam * (s0 + s))
+        lam = self._objective_decreases(objective, lam, 0.5 * lam * (s0 + s), Lx)
         if lam != 1.0:
             y.scale(lam)
         return lam != 1.0
@@ -478,20 +562,27 @@ class NonlinearSolver:
                 slo, side = (slo / 2 if side == 1 else slo), 1
         return lam, s
 
-    def _objective_decreases(self, x, y, lam, predicted):
-        """λ, halved until Π(x − λy) <= Π(x). Skipped where the predicted change (trapezoid of the slopes,
-        < 0) is below OBJECTIVE_ROUNDOFF times Π's terms (~λ|Lᵀx|): the two values of Π cannot resolve
-        it there, the slopes can. Raises _LineSearchFailure if no λ >= 2^-30 λ decreases Π."""
-        if -OBJECTIVE_ROUNDOFF * abs(self.load_factor * self.load.dot(x)) <= predicted <= 0.0:
+    @staticmethod
+    def _objective_decreases(objective, lam, predicted, Lx):
+        """λ, halved until φ(λ) = Π(x − λy) <= φ(0) = Π(x). Skipped where the predicted change (trapezoid
+        of the slopes, < 0) is below OBJECTIVE_ROUNDOFF times Π's terms (~λ|Lᵀx|): the two values of Π
+        cannot resolve it there, the slopes can. Raises _LineSearchFailure if no λ >= 2^-30 λ decreases Π."""
+        if -OBJECTIVE_ROUNDOFF * abs(Lx) <= predicted <= 0.0:
             return lam
-        value = self.snes.computeObjective(x)
+        value = objective(0.0)
         for _ in range(30):
-            x.copy(self.trial)
-            self.trial.axpy(-lam, y)
-            if self.snes.computeObjective(self.trial) <= value:
+            if objective(lam) <= value:
                 return lam
             lam /= 2
         raise _LineSearchFailure()
+
+    def _xKx(self, x):
+        """xᵀKx, from the residual's evaluation at x if it was the last one (SNES's iterate)."""
+        handle, state, value = self.xKx
+        if handle == x.handle and state == x.stateGet():
+            return value
+        self.K.mult(x, self.work)
+        return x.dot(self.work)
 
     # --- the preconditioner ------------------------------------------------------------------------
 
@@ -572,6 +663,9 @@ class NonlinearSolver:
             self.left_cg = True  # reported in SolveStats.recoveries
         if self._wants_refresh(first, A):
             self._rebuild_preconditioner(A)
+        if self.forcing is not None:
+            rtol = self.forcing.tolerance(snes.getFunctionNorm(), None if first else self._remainder())
+            snes.getKSP().setTolerances(rtol=rtol, atol=self.forcing.absolute)
 
     def _met_indefinite_preconditioner(self):
         """CG stopped on a preconditioner that is not positive definite. Rebuilding it from the same matrix
@@ -595,11 +689,11 @@ class NonlinearSolver:
         stiffness at all — the first step is then the unsupported body's response, which the line search
         cuts to a fraction (0.07–0.34 on the family's m_n > 1 members) — else the preset's."""
         self.first_jacobian = False
-        if not self.snes.getUseEW() or "snes_ksp_ew_rtol0" in self.user_keys:
+        if self.forcing is None or "snes_ksp_ew_rtol0" in self.user_keys:
             return
         unsupported = A.norm() == self.K.norm()  # (J(u_0) = K entry by entry, or an added contact term)
-        rtol0 = self.options["ew_rtol0_unsupported"] if unsupported else self.options.get("snes_ksp_ew_rtol0", 0.3)
-        self.snes.setParamsEW(rtol_0=float(rtol0))
+        if unsupported:
+            self.forcing.rtol0 = float(self.options["ew_rtol0_unsupported"])
 
     # --- solving -----------------------------------------------------------------------------------
 
@@ -659,18 +753,16 @@ class NonlinearSolver:
         ksp = self.snes.getKSP()
         ksp.setOperators(self.A, self.P)
         y = rhs.duplicate()
-        ew, tolerances = self.snes.getUseEW(), ksp.getTolerances()
+        tolerances = ksp.getTolerances()
         # The preset's first Eisenstat–Walker tolerance, relative to ‖F(0)‖ = ‖λL‖: c_n g_0 can dominate
         # rhs, and relative to it the step left ‖F‖ ≈ ‖F(0)‖ (8 Newton steps in all instead of 6).
-        if ew:
-            self.snes.setUseEW(False)
+        if self.forcing is not None:
             ratio = self.load_factor * self.load.norm() / rhs.norm()
-            ksp.setTolerances(rtol=float(self.options.get("snes_ksp_ew_rtol0", 0.3)) * min(1.0, ratio))
+            ksp.setTolerances(rtol=self.forcing.params["rtol_0"] * min(1.0, ratio))
         try:
             ksp.solve(rhs, y)
         finally:
             ksp.setTolerances(*tolerances)
-            self.snes.setUseEW(ew)
         self.extra_krylov += ksp.getIterationNumber()  # (SNES counts its own solves only)
         y.scale(-1.0)
         fem_petsc.set_bc(y, self.bcs)  # the clamped dofs stay put
@@ -693,15 +785,16 @@ class NonlinearSolver:
 
     def _snes_solve(self, x, stats, target):
         """SNES from x to ‖F‖ <= target, given as both atol and rtol ‖F(x)‖: then it never stops above the
-        target, and Eisenstat–Walker's guard against oversolving (version 3: rtol ‖F_0‖) aims the last
-        Krylov solve at the target."""
+        target (and Forcing never solves a linear system beyond half of it)."""
         self._residual(self.snes, x, self.b)
         fnorm = self.b.norm()
         if fnorm <= target:  # (PETSc refuses rtol >= 1) an initial guess that already solves (7)
             stats.converged_reason = "CONVERGED_FNORM_ABS"
             return True
         self.snes.setTolerances(rtol=target / fnorm, atol=target)
-        self.extra_krylov = 0
+        if self.forcing is not None:
+            self.forcing.start(target)
+        self.extra_krylov, self.predicted_full_step = 0, False
         try:
             self.snes.solve(None, x)
             reason = self.snes.getConvergedReason()
@@ -821,6 +914,6 @@ class NonlinearSolver:
         return stats
 
     def destroy(self):
-        owned = [self.snes, self.A, self.K, self.b, self.contact, self.load, self.work, self.trial]
+        owned = [self.snes, self.A, self.K, self.b, self.contact, self.load, self.work, self.trial, self.predicted]
         for obj in owned + ([self.P] if self.P is not self.K else []):
             obj.destroy()

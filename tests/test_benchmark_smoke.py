@@ -84,12 +84,30 @@ def test_forms_compiled_once_per_run(smoke, problem):
 
 def test_the_boomeramg_floor_is_set_up_as_the_solver_sets_it_up():
     """benchmarks/ use the public API only, so the BoomerAMG floor spells out its options: they must be the
-    solver's (solver.HYPRE), or the "(hypre)" columns would compare against another preconditioner."""
+    solver's in each dimension (solver.HYPRE_BY_DIM), or the "(hypre)" columns would compare against another
+    preconditioner."""
     import importlib.util
-    from nc_dolfinx.solver import HYPRE
+    from nc_dolfinx.solver import HYPRE_BY_DIM
     spec = importlib.util.spec_from_file_location("benchmarks_common", ROOT / "benchmarks" / "common.py")
     common = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(common)
-    floor = common.FLOOR_AMG["hypre"]
-    assert floor["pc_type"] == "hypre" and floor["ksp_type"] == "cg"
-    assert {key: floor.get(key) for key in HYPRE} == HYPRE
+    for dim, settings in HYPRE_BY_DIM.items():
+        floor = common.floor_amg_options("hypre", dim)
+        assert floor["pc_type"] == "hypre" and floor["ksp_type"] == "cg"
+        assert {key: value for key, value in floor.items() if key.startswith("pc_hypre")} == settings
+
+
+def test_the_amg_comparison_solves_to_the_accuracy_it_compares_at(tmp_path):
+    """benchmarks/amg.py on the smoke meshes, 1 rank: every preconditioner it times reaches the true residual
+    1e-10 ‖L‖ that Newton stops at (so the columns compare equal accuracy), the floor (preconditioned rtol
+    1e-8) a coarser one, on generated and Plaza-refined meshes of all four bodies."""
+    out = tmp_path / "amg.json"
+    proc = run([ROOT / "benchmarks" / "amg.py", "--small", "--np", "1", "--repeat", "1", "--json-out", out],
+               timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = json.loads(out.read_text())
+    assert len(rows) == 8 and {r["mesh"] for r in rows} == {"generated", "refined"}
+    for r in rows:
+        for name in ("gamg", "hypre", "hypre_before"):
+            assert r[f"residual_{name}"] <= 2e-10, (r["body"], r["mesh"], name)
+        assert r["residual_floor"] > 1e-9

@@ -88,8 +88,9 @@ def solved(request):
     return request.param, out
 
 
-# In 3D the default linear solver is GAMG, whose aggregates depend on the partition: the Newton iterates,
-# and at times their number, differ between rank counts, the converged solutions agree to the tolerance.
+# In 3D the default linear solver is CG + BoomerAMG, whose coarsening and smoother depend on the partition:
+# the Newton iterates, and at times their number, differ between rank counts; the converged solutions agree
+# to the tolerance.
 EXACT = ("dofs", "cells")
 CLOSE = ("u_l2", "elastic_energy", "contact_resultant", "max_contact_pressure", "max_penetration",
          "contact_area", "h1_error", "l2_error")

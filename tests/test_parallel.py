@@ -57,7 +57,7 @@ def test_marked_sets_are_identical_on_1_2_3_ranks(case, strategy, theta):
 @pytest.mark.parametrize("nprocs", [2, 3])
 def test_the_same_command_gives_the_same_partition(nprocs):
     """Debian's PT-SCOTCH partitions with several threads unless told otherwise: the same run on 2 ranks
-    then got one of several partitions (3 in 5 runs of this script), and with it other GAMG aggregates,
+    then got one of several partitions (3 in 5 runs of this script), and with it other AMG hierarchies,
     Newton counts and last digits. nc_dolfinx asks SCOTCH for one thread."""
     script = ROOT / "tests" / "mpi" / "partition_hash.py"
     prints = set()
