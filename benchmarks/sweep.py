@@ -25,10 +25,8 @@ def p(*items):
 
 
 IT = ["--preset", "iterative"]
-HYPRE = p("pc_type=hypre", "pc_hypre_type=boomeramg", "pc_hypre_boomeramg_nodal_coarsen=6",
-          "pc_hypre_boomeramg_vec_interp_variant=3", "pc_hypre_boomeramg_strong_threshold=0.5",
-          "pc_hypre_boomeramg_coarsen_type=HMIS", "pc_hypre_boomeramg_interp_type=ext+i",
-          "pc_hypre_boomeramg_agg_nl=1")
+GAMG = IT + p("pc_type=gamg")  # (the iterative preset's BoomerAMG replaced by GAMG, with its settings)
+HYPRE_NODAL = p("pc_hypre_boomeramg_nodal_coarsen=6", "pc_hypre_boomeramg_vec_interp_variant=3")
 ML = p("pc_type=ml", "pc_ml_reuse_interpolation=true")
 
 CONFIGS = {
@@ -36,30 +34,39 @@ CONFIGS = {
     "shipped": [],
     "iterative": IT,
     "direct": ["--preset", "direct"],
-    # Eisenstat-Walker (the iterative preset: version 3, rtol0 0.03)
+    # the forcing terms (the iterative preset: Eisenstat–Walker version 3, rtol0 0.03, see solver.Forcing)
     "ew1": IT + p("snes_ksp_ew_version=1"),
     "ew2": IT + p("snes_ksp_ew_version=2"),
     "ew-rtol0-0.1": IT + p("snes_ksp_ew_rtol0=0.1"),
     "ew-rtolmax-0.1": IT + p("snes_ksp_ew_rtolmax=0.1"),
     "ew-rtolmax-0.5": IT + p("snes_ksp_ew_rtolmax=0.5"),
     "no-ew": IT + p("snes_ksp_ew=false"),
-    # GAMG tuning
-    "thr-0.01": IT + p("pc_gamg_threshold=0.01"),
-    "thr-0.05": IT + p("pc_gamg_threshold=0.05"),
-    "square-0": IT + p("pc_gamg_square_graph=0"),
-    "aggressive-2": IT + p("pc_gamg_aggressive_coarsening=2"),
-    "aggressive-10": IT + p("pc_gamg_aggressive_coarsening=10"),
-    "coarse-1000": IT + p("pc_gamg_coarse_eq_limit=1000"),
-    "coarse-5000": IT + p("pc_gamg_coarse_eq_limit=5000"),
-    "repartition": IT + p("pc_gamg_repartition=true"),
-    "nsmooths-0": IT + p("pc_gamg_agg_nsmooths=0"),
-    "mg-its-3": IT + p("mg_levels_ksp_max_it=3"),
-    "esteig-20": IT + p("mg_levels_ksp_chebyshev_esteig_steps=20"),
-    "sa-esteig": IT + p("pc_gamg_use_sa_esteig=true", "pc_gamg_reuse_interpolation=false"),
-    "no-reuse": IT + p("pc_gamg_reuse_interpolation=false"),
+    "preconditioned-norm": IT + p("ksp_norm_type=preconditioned"),
+    # BoomerAMG variants (the shipped settings: solver.HYPRE_BY_DIM)
+    "hypre-nodal": IT + HYPRE_NODAL,
+    "hypre-agg1": IT + p("pc_hypre_boomeramg_agg_nl=1"),
+    "hypre-agg2": IT + p("pc_hypre_boomeramg_agg_nl=2"),
+    "hypre-gs": IT + p("pc_hypre_boomeramg_relax_type_all=symmetric-SOR/Jacobi"),
+    "hypre-chebyshev": IT + p("pc_hypre_boomeramg_relax_type_all=Chebyshev"),
+    "hypre-thr-0.25": IT + p("pc_hypre_boomeramg_strong_threshold=0.25"),
+    "hypre-thr-0.5": IT + p("pc_hypre_boomeramg_strong_threshold=0.5"),
+    # GAMG and its tuning
+    "gamg": GAMG,
+    "thr-0.01": GAMG + p("pc_gamg_threshold=0.01"),
+    "thr-0.05": GAMG + p("pc_gamg_threshold=0.05"),
+    "square-0": GAMG + p("pc_gamg_square_graph=0"),
+    "aggressive-2": GAMG + p("pc_gamg_aggressive_coarsening=2"),
+    "aggressive-10": GAMG + p("pc_gamg_aggressive_coarsening=10"),
+    "coarse-1000": GAMG + p("pc_gamg_coarse_eq_limit=1000"),
+    "coarse-5000": GAMG + p("pc_gamg_coarse_eq_limit=5000"),
+    "repartition": GAMG + p("pc_gamg_repartition=true"),
+    "nsmooths-0": GAMG + p("pc_gamg_agg_nsmooths=0"),
+    "mg-its-3": GAMG + p("mg_levels_ksp_max_it=3"),
+    "esteig-20": GAMG + p("mg_levels_ksp_chebyshev_esteig_steps=20"),
+    "sa-esteig": GAMG + p("pc_gamg_use_sa_esteig=true", "pc_gamg_reuse_interpolation=false"),
+    "no-reuse": GAMG + p("pc_gamg_reuse_interpolation=false"),
     # other AMG
     "ml": IT + ML,
-    "hypre": IT + HYPRE,
     # the preconditioner's refresh
     "misfit-1": IT + p("pc_refresh_misfit=1"),
     "misfit-0.1": IT + p("pc_refresh_misfit=0.1"),

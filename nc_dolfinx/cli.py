@@ -61,7 +61,7 @@ def parser():
     p.add_argument("--rtol", type=float, default=None, help="stop once eta <= RTOL * eta(level 0)")
     p.add_argument("--preset", choices=("auto", "direct", "iterative"), default=None,
                    help="linear solver preset for CG on the Jacobian: preconditioned by a MUMPS Cholesky "
-                        "factorisation (direct) or GAMG (iterative); auto (default) picks one from the "
+                        "factorisation (direct) or BoomerAMG (iterative); auto (default) picks one from the "
                         "mesh's dimension and size")
     p.add_argument("--load-steps", type=_whole, default=None, help="increments of the loads on level 0")
     p.add_argument("--compare-uniform", action="store_true",

@@ -109,7 +109,7 @@ KEYS = [
     Key("adapt.rtol", "number", "stop once η ≤ rtol·η(level 0) (default: none)", check=_positive),
     # [solver]
     Key("solver.preset", "choice", "linear solver inside Newton: chosen from the problem (`auto`), MUMPS "
-        "Cholesky (`direct`) or GAMG (`iterative`)", "auto", ("auto", "direct", "iterative")),
+        "Cholesky (`direct`) or BoomerAMG (`iterative`)", "auto", ("auto", "direct", "iterative")),
     Key("solver.preconditioner_matrix", "choice", "matrix the preconditioner is built from", "auto",
         ("auto", "bulk", "jacobian")),
     Key("solver.load_steps", "integer", "load increments on level 0", 1, check=_at_least_one),

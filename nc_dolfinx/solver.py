@@ -75,11 +75,12 @@ OWN_DEFAULTS = {
 # hypre's recommendation per dimension, 0.25 in 2D and 0.5 in 3D. The smoother is PETSc's default for it,
 # symmetric hybrid Gauss–Seidel, in 2D; in 3D a Chebyshev polynomial (parallel as it is serial) with two
 # levels of aggressive coarsening: more CG iterations, but each ~40 % cheaper and the set-up ~40 % faster.
-# Measured (benchmarks/README.md, "BoomerAMG on every level"): against GAMG set up as DOLFINx's elasticity
-# demo does (below), one linear solve of the family's 3D cube to the same accuracy 2.6 s instead of 3.3 s
-# (2D square 0.66 s instead of 1.36 s); GAMG needs 55–61 CG iterations on the two-material body where
-# BoomerAMG needs 23–26; and on Plaza-refined meshes (the adaptive loop's nested levels) PETSc 3.18's GAMG
-# aggregates poorly (operator complexity 3.1 instead of 1.3: 6.3 s against 1.6 s on the cube refined once).
+# Measured (benchmarks/README.md, "BoomerAMG and the forcing terms", benchmarks/amg.py: one linear solve to
+# Newton's accuracy) against GAMG set up as DOLFINx's elasticity demo does (below): the family's 3D cube 2.0 s
+# instead of 3.5 s serially, the 2D square 0.62 s instead of 1.46 s; GAMG needs 51–58 CG iterations on the
+# two-material bodies where BoomerAMG needs 37–40; and on Plaza-refined meshes (the adaptive loop's nested
+# levels) PETSc 3.18's GAMG aggregates poorly (operator complexity 3.1 instead of 1.3: 9.7 s against 1.7 s
+# on the cube refined once).
 HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
          "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4}
 HYPRE_BY_DIM = {2: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.25},
@@ -146,10 +147,9 @@ def choose_preset(dim, dofs, warm_start):
     - 2D, up to COLD_DIRECT_MAX_DOFS: MUMPS Cholesky; both take < 0.05 s there, and exact Newton steps
       make the Newton counts independent of the partition.
     - 2D with a warm start (the adaptive loop's nested levels), up to WARM_DIRECT_MAX_DOFS: MUMPS
-      Cholesky of J(u_0), nearly the final Jacobian: 1–4 CG iterations per level. GAMG costs 3–4x more to
-      set up on refined meshes than on generated ones of the same size (the square at 1.3e5: 0.8 s
-      against 0.22 s), and the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct
-      (corner: within 10 %).
+      Cholesky of J(u_0), nearly the final Jacobian: 1–4 CG iterations per level (nested levels of the
+      family's square: 0.17–0.45 x the linear floor; spot checks with BoomerAMG 0.43–0.47 x); with GAMG
+      the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct (corner: within 10 %).
     - otherwise (2D cold starts, large meshes): CG + AMG, 1.4–2.8x faster than the factorisation on a
       cold start from 1e4 dofs on (block, corner, the family square).
     The number of ranks did not change these choices in the measurements.
