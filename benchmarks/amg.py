@@ -26,12 +26,14 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from common import FLOOR_HYPRE, LinearFloor, dofs, format_table, launch, machine_load, refine_uniformly  # noqa: E402
+from common import (FLOOR_HYPRE, FLOOR_RTOL, LinearFloor, dofs, format_table, launch, machine_load,  # noqa: E402
+                    refine_uniformly)
 import family  # noqa: E402
 
-VARIANTS = {"gamg": None, "hypre": None,
-            "hypre_before": {**FLOOR_HYPRE[3], "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.5,
-                        "pc_hypre_boomeramg_relax_type_all": "symmetric-SOR/Jacobi"}}
+# (the settings before, the same in 2D and 3D: the 3D ones with one aggressive level and Gauss–Seidel)
+BEFORE = {**FLOOR_HYPRE[3], "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.5,
+          "pc_hypre_boomeramg_relax_type_all": "symmetric-SOR/Jacobi"}
+VARIANTS = {"gamg": None, "hypre": None, "hypre_before": BEFORE}
 BODIES = {"square": "1-1", "two_materials": "two-1e4-1", "cube": "3d-1-1", "two_materials_cube": "3d-two-1e4-1"}
 
 
@@ -47,7 +49,7 @@ def worker(args):
         domain = refine_uniformly(parent)
     floor = LinearFloor(problem, domain)
     row = {"body": args.body, "mesh": args.mesh, "np": comm.size, "dofs": dofs(domain)}
-    runs = [("floor", "gamg", None, 1e-8, "preconditioned")]
+    runs = [("floor", "gamg", None, FLOOR_RTOL, "preconditioned")]
     runs += [(name, name, settings, args.rtol, "unpreconditioned") for name, settings in VARIANTS.items()]
     for label, amg, settings, rtol, norm in runs:
         timed = [floor.solve(rtol, norm, amg, settings) for _ in range(args.repeat + 1)][1:]  # (one untimed)
@@ -76,7 +78,8 @@ def driver(args):
             for nprocs in args.np:
                 out = Path(tmp) / f"{body}_{mesh}_{nprocs}.json"
                 cmd = [Path(__file__).resolve(), "--worker", "--body", body, "--mesh", mesh, "--tmp", tmp,
-                       "--json", out, "--repeat", args.repeat, "--rtol", args.rtol] + (["--small"] if args.small else [])
+                       "--json", out, "--repeat", args.repeat, "--rtol", args.rtol]
+                cmd += ["--small"] if args.small else []
                 proc = launch(cmd, nprocs, args.timeout)
                 if proc.returncode != 0:
                     print(f"{body} {mesh} np={nprocs} FAILED:\n{proc.stderr[-2000:]}", file=sys.stderr)

@@ -470,10 +470,13 @@ class NonlinearSolver:
 
     def _objective(self, snes, x):
         """Π(x) = ½xᵀKx − λLᵀx + ∫_Γ_C c_n/(m_n+1) (x_n − g_0)_+^{m_n+1}."""
-        self._update(x)
         self.K.mult(x, self.work)
-        quadratic = 0.5 * x.dot(self.work) - self.load_factor * self.load.dot(x)
-        return quadratic + self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
+        return 0.5 * x.dot(self.work) - self.load_factor * self.load.dot(x) + self._contact_energy(x)
+
+    def _contact_energy(self, x):
+        """Π's Γ_C part at x, ∫_Γ_C c_n/(m_n+1) (x_n − g_0)_+^{m_n+1}."""
+        self._update(x)
+        return self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
 
     def _precheck(self, x, y):
         """Before SNES steps to x − λy: the step's Dirichlet entries set to zero, then (``line_minimisation``)
@@ -486,7 +489,7 @@ class NonlinearSolver:
         the line search stalled at ‖F‖ ≈ 1e-4 ‖F_0‖ on the 3D box (65 Newton steps and three fallbacks).
         Zeroing y_D keeps x_D = 0 and leaves F·y (F_D = 0) unchanged: y stays a descent direction of Π."""
         fem_petsc.set_bc(y, self.bcs)
-        self._predict(y)
+        self._predict(y)  # first: the bilateral predictor reassembles A
         if self.bilateral_candidate:
             self.bilateral_candidate = False
             if self._bilateral_predictor(x, y):
@@ -524,17 +527,17 @@ class NonlinearSolver:
         yKy, xKy = y.dot(self.work), x.dot(self.work)
         Lx, Ly = (self.load_factor * self.load.dot(v) for v in (x, y))
 
-        def slope(lam):
+        def trial(lam):  # x − λy
             x.copy(self.trial)
             self.trial.axpy(-lam, y)
-            return -(xKy - lam * yKy - Ly + self._assemble_contact(self.trial).dot(y))
+            return self.trial
+
+        def slope(lam):
+            return -(xKy - lam * yKy - Ly + self._assemble_contact(trial(lam)).dot(y))
 
         def objective(lam):  # Π(x − λy), its quadratic part from the products above: no mat-vec
-            x.copy(self.trial)
-            self.trial.axpy(-lam, y)
-            self._update(self.trial)
-            contact = self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
-            return 0.5 * (self._xKx(x) - 2 * lam * xKy + lam ** 2 * yKy) - Lx + lam * Ly + contact
+            quadratic = 0.5 * (self._xKx(x) - 2 * lam * xKy + lam ** 2 * yKy) - Lx + lam * Ly
+            return quadratic + self._contact_energy(trial(lam))
 
         s0, lam = slope(0.0), 1.0
         s = slope(lam) if s0 < 0.0 else 0.0
@@ -692,8 +695,9 @@ class NonlinearSolver:
         if self.forcing is None or "snes_ksp_ew_rtol0" in self.user_keys:
             return
         unsupported = A.norm() == self.K.norm()  # (J(u_0) = K entry by entry, or an added contact term)
-        if unsupported:
-            self.forcing.rtol0 = float(self.options["ew_rtol0_unsupported"])
+        # (reset on every solve: a solver may be solved again from a supported start)
+        self.forcing.rtol0 = (float(self.options["ew_rtol0_unsupported"]) if unsupported
+                              else self.forcing.params["rtol_0"])
 
     # --- solving -----------------------------------------------------------------------------------
 

@@ -264,6 +264,29 @@ def objective_history(c_n, m_n):
     return values, energy
 
 
+def test_the_first_krylov_tolerance_is_chosen_again_on_every_solve():
+    """From u = 0 with m_n > 1, J(u_0) = K holds no foundation: the first Krylov solve goes to
+    ew_rtol0_unsupported. Solved again from a guess in contact (J(u_0) sees the foundation), the same solver
+    goes back to the preset's rtol0."""
+    problem, domain = square(100.0, 2)
+    fields = nc.bind(problem, domain)
+    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    u = fem.Function(V)
+    options = solver_options("iterative")
+    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
+                             options, "auto")
+    try:
+        solver.solve()
+        unsupported = solver.forcing.rtol0
+        u.x.array[:] *= 0.5
+        solver.solve()
+        supported = solver.forcing.rtol0
+    finally:
+        solver.destroy()
+    assert unsupported == solver.options["ew_rtol0_unsupported"] == 0.3
+    assert supported == solver.options["snes_ksp_ew_rtol0"] == 0.03
+
+
 @pytest.mark.parametrize("c_n,m_n", [(1e4, 1), (1e3, 3)])
 def test_the_objective_decreases_at_every_newton_step(c_n, m_n):
     values, energy = objective_history(c_n, m_n)
