@@ -241,6 +241,16 @@ def test_a_linear_problem_takes_two_newton_steps():
     assert stats.newton_iterations == 2 and close(u, direct[0])
 
 
+@pytest.mark.parametrize("nprocs", [2, 3])
+def test_a_linear_problem_takes_two_newton_steps_on_any_partition(nprocs):
+    """The same on 2 and 3 ranks (tests/mpi/linear_in_two_steps.py): the remainder that lets the second step
+    finish is a global norm, round-off on every partition."""
+    proc = run([ROOT / "tests" / "mpi" / "linear_in_two_steps.py"], nprocs)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["newton"]["iterative"] == 2 and result["difference"] <= 1e-8
+
+
 def test_when_nothing_helps_the_error_is_one_clear_line():
     with pytest.raises(InputError) as err:
         solve_square(1e4, 1, "iterative", {"snes_max_it": 1})
