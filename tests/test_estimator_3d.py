@@ -19,15 +19,18 @@ import itertools
 
 import numpy as np
 import pytest
+import ufl
 from mpi4py import MPI
+
+import dolfinx
 
 from conftest import ROOT
 from test_estimator import (assert_close, computed_by_cell, prescribe, run_for_result,  # any dimension
                             triangle_rule, write_msh)
 from dolfinx import fem, mesh as dmesh
 from nc_dolfinx import Problem, bind, build_domain
-from nc_dolfinx.estimator import NAMES, estimate, patch_sum
-from nc_dolfinx.physics import lame
+from nc_dolfinx.estimator import NAMES, assemble_cellwise, estimate, patch_sum
+from nc_dolfinx.physics import lame, sigma
 
 RTOL = 1e-12
 N_TRI = 24  # Duffy points per direction on triangles
@@ -466,3 +469,41 @@ def test_parallel_matches_serial():
             f"{nprocs} ranks: max relative difference {np.max(np.abs(a - b) / scale):.2e}"
         for name, value in serial_result["totals"].items():
             assert result["totals"][name] == pytest.approx(value, rel=1e-12), name
+
+
+# --- the interior-facet jumps without facet permutations ----------------------------------------
+
+
+def jump_form(msh, degree):
+    """Σ_F ∫_F |[σ(u) ν]|² w, for a random P1 field u, assembled against DG0 w on both sides of F."""
+    u = fem.Function(fem.VectorFunctionSpace(msh, ("CG", 1)))
+    u.x.array[:] = np.random.default_rng(7).uniform(-1, 1, u.x.array.size)
+    w = ufl.TestFunction(fem.FunctionSpace(msh, ("DG", 0)))
+    n, s = ufl.FacetNormal(msh), sigma(u, 1.3, 0.7)
+    jump = s("+") * n("+") + s("-") * n("-")
+    return ufl.inner(jump, jump) * (w("+") + w("-")) * ufl.dS(metadata={"quadrature_degree": degree})
+
+
+def perturbed_box():
+    """A 3×3×3 box of tetrahedra with its vertices moved off the grid (faces in every orientation)."""
+    msh = dmesh.create_box(MPI.COMM_WORLD, [[0, 0, 0], [1, 1, 1]], [3, 3, 3], dmesh.CellType.tetrahedron)
+    msh.geometry.x[:] += np.random.default_rng(3).uniform(-0.08, 0.08, msh.geometry.x.shape)
+    return msh
+
+
+def test_one_point_jumps_need_no_facet_permutations():
+    """The jump integral of the estimator with its one-point rule, assembled by ``assemble_cellwise``
+    (facet permutations switched off: no edges are built), equals DOLFINx's own assembly with the
+    permutations (which builds them) to round-off; an interior-facet rule of degree 2 keeps them."""
+    msh, reference = perturbed_box(), perturbed_box()
+    # DOLFINx's own path first: the switch is kept in the compiled module, which both forms share
+    vec = fem.assemble_vector(fem.form(jump_form(reference, 0)))
+    vec.scatter_reverse(dolfinx.la.ScatterMode.add)
+    assert reference.topology.index_map(1) is not None  # it builds the edges for the permutations
+    values = assemble_cellwise(jump_form(msh, 0), fem.FunctionSpace(msh, ("DG", 0)))[:, 0]
+    assert msh.topology.index_map(1) is None  # no edges, hence no permutations, were needed
+    expected = vec.array[:len(values)]
+    assert np.min(expected) > 0
+    assert np.max(np.abs(values - expected)) <= 1e-13 * np.max(expected)
+    assemble_cellwise(jump_form(msh, 2), fem.FunctionSpace(msh, ("DG", 0)))
+    assert msh.topology.index_map(1) is not None  # a rule with several points is permuted as FFCx asks

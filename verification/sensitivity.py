@@ -14,12 +14,12 @@ from pathlib import Path
 
 from common import PYTHON, ROOT, child_env
 
-JUMP = '    form += ufl.inner(jump, jump) * (h("+") * wv("+")[gdim + 4] + h("-") * wv("-")[gdim + 4]) * ufl.dS\n'
+JUMP = '    form += ufl.inner(jump, jump) * (h("+") * wv("+")[gdim + 4] + h("-") * wv("-")[gdim + 4]) * dS\n'
 BREAKS = {
     "interior jumps dropped from η_2": (JUMP, ""),
     "h_E² instead of h_K on interior edges": (
         JUMP, '    form += ufl.inner(jump, jump) * (ufl.FacetArea(msh) ** 2 * (wv("+")[gdim + 4] + wv("-")[gdim + 4]))'
-              ' * ufl.dS\n'),
+              ' * dS\n'),
 }
 COPY = ["nc_dolfinx", "verification", "meshes", "run_cases.py"]
 
