@@ -12,6 +12,7 @@ from petsc4py import PETSc
 from dolfinx import fem, mesh as dmesh
 
 from conftest import ROOT, run, run_cli, summary
+from mpi.square import square_problem
 import nc_dolfinx as nc
 from nc_dolfinx import forms
 from nc_dolfinx.errors import InputError
@@ -29,12 +30,8 @@ def solve(overrides=(), preset="direct", load_steps=1, preconditioner_matrix=Non
 
 
 def square(c_n, m_n, cells=24, gap=0.0):
-    """The family's member (benchmarks/family.py): unit square, E = 1, clamped top, f = (0, −0.5)."""
-    data = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [cells, cells], "dirichlet": ["top"],
-                     "neumann": ["left", "right"], "contact": ["bottom"]},
-            "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]},
-            "contact": {"c_n": c_n, "m_n": m_n, "gap": gap}}
-    problem = nc.Problem.from_dict(data, "square")
+    """The family's member (tests/mpi/square.py) and its mesh."""
+    problem = square_problem(c_n, m_n, cells, gap)
     return problem, nc.build_domain(problem, MPI.COMM_WORLD)
 
 

@@ -18,17 +18,14 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
 import nc_dolfinx as nc
+from square import square_problem
 from nc_dolfinx import forms
 
 COMM = MPI.COMM_WORLD
 
 
 def problem(gap, preset):
-    data = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [24, 24], "dirichlet": ["top"],
-                     "neumann": ["left", "right"], "contact": ["bottom"]},
-            "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]},
-            "contact": {"c_n": 1e4, "m_n": 1, "gap": gap}, "solver": {"preset": preset}}
-    return nc.Problem.from_dict(data, "square")
+    return square_problem(1e4, 1, gap=gap, preset=preset)
 
 
 def max_difference(a, b):

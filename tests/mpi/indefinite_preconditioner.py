@@ -12,6 +12,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import nc_dolfinx as nc
+from square import square_problem
 
 
 class IndefiniteAMG:
@@ -37,11 +38,7 @@ class IndefiniteAMG:
 
 
 def run(options):
-    data = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [24, 24], "dirichlet": ["top"],
-                     "neumann": ["left", "right"], "contact": ["bottom"]},
-            "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]},
-            "contact": {"c_n": 1e4, "m_n": 1}, "solver": {"preset": "iterative"}}
-    problem = nc.Problem.from_dict(data, "square")
+    problem = square_problem(1e4, 1, preset="iterative")
     try:
         solution = nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD), petsc_options=options)
     except nc.InputError as err:

@@ -10,13 +10,10 @@ import numpy as np
 from mpi4py import MPI
 
 import nc_dolfinx as nc
+from square import square_problem
 
 COMM = MPI.COMM_WORLD
-DATA = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [24, 24], "dirichlet": ["top"],
-                 "neumann": ["left", "right"], "contact": ["bottom"]},
-        "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]}, "contact": {"c_n": 0.0, "m_n": 1}}
-
-problem = nc.Problem.from_dict(DATA, "square")
+problem = square_problem(0.0, 1)
 domain = nc.build_domain(problem, COMM)
 solutions = {preset: nc.solve(problem.replace({"solver.preset": preset}), domain)
              for preset in ("iterative", "direct")}
