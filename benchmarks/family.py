@@ -56,7 +56,7 @@ class Member:
 
     def gap_text(self):
         a, b = self.gap
-        return "0" if a == b == 0 else f"{a} + {b}*x"
+        return " + ".join(([f"{a:g}"] if a else []) + ([f"{b:g}*x"] if b else [])) or "0"
 
     @property
     def dim(self):

@@ -8,7 +8,8 @@ zero is a descent direction of Π (∇Π·d = −dᵀJd < 0), so inexact (Eisens
 solves stopped at their iteration limit are safe steps too. On a cold start with a gap and m_n = 1 the
 first step may be the bilateral one (all of Γ_C in contact, see _bilateral_predictor). A failed SNES solve
 is retried with a refreshed, then a stronger preconditioner, then by load continuation, before it ends
-the run.
+the run; a solve whose residual stalls or fails within its own round-off (a stiff penalty with a gap)
+ends there, converged (see NonlinearSolver._within_roundoff).
 
 Options are layered (later wins): the preset's defaults, the problem file's ``[solver] petsc_options``,
 then ``-snes_*``/``-ksp_*``/``-pc_*`` flags from the command line. All are written into the PETSc
@@ -66,6 +67,7 @@ OWN_DEFAULTS = {
     # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
     "atol_of_load": 1e-10,
     "bilateral_predictor": True,   # see _bilateral_predictor
+    "roundoff_factor": 10.0,       # ROUNDOFF_FACTOR below (0: the target alone ends a solve)
 }
 
 # hypre's BoomerAMG, the iterative preset's preconditioner (cold and warm starts, 2D and 3D): classical AMG
@@ -263,6 +265,11 @@ class _LineSearchFailure(Exception):
     over from the last iterate)."""
 
 
+class _ConvergedToRoundoff(Exception):
+    """The residual of the current iterate lies within its own round-off (see _within_roundoff): the SNES
+    solve ends there, converged."""
+
+
 class _ClosedKinks(MultiFunction):
     """gt(a, b) -> ge(a, b): a conditional's kink taken on its active side."""
     expr = MultiFunction.reuse_if_untouched
@@ -298,6 +305,10 @@ MISFIT_MAX = OWN_DEFAULTS["pc_refresh_misfit"]
 WOLFE_ETA = 0.5
 LINE_TOL = 0.1
 OBJECTIVE_ROUNDOFF = 1e-10
+# Round-off of the residual (see _within_roundoff): checked when ‖F‖ no longer falls below STALL_RATIO times
+# its last value, or when a solve fails.
+ROUNDOFF_FACTOR = OWN_DEFAULTS["roundoff_factor"]
+STALL_RATIO = 0.5
 
 
 class Forcing:
@@ -661,6 +672,10 @@ class NonlinearSolver:
         if self.first_jacobian:
             self._first_krylov_tolerance(A)
         first = snes.getIterationNumber() == 0
+        fnorm = snes.getFunctionNorm()
+        if not first and fnorm >= STALL_RATIO * self.previous_fnorm and self._within_roundoff(x, A):
+            raise _ConvergedToRoundoff()  # (a stalled ‖F‖ that Newton cannot lower further)
+        self.previous_fnorm = fnorm
         if not first and self._met_indefinite_preconditioner():
             self._leave_cg()
             self.left_cg = True  # reported in SolveStats.recoveries
@@ -799,15 +814,52 @@ class NonlinearSolver:
         if self.forcing is not None:
             self.forcing.start(target)
         self.extra_krylov, self.predicted_full_step = 0, False
+        self.target, self.previous_fnorm = target, math.inf
+        roundoff = False  # ended within the residual's round-off (see _within_roundoff)
         try:
             self.snes.solve(None, x)
             reason = self.snes.getConvergedReason()
         except _LineSearchFailure:  # x is still the iterate the line search started from
             reason = PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH
+        except _ConvergedToRoundoff:  # x is the iterate whose residual was checked
+            reason, roundoff = PETSc.SNES.ConvergedReason.CONVERGED_ITERATING, True
+        if reason < 0 and self._residual_within_roundoff(x):
+            roundoff = True  # the solve failed where Newton could not do better
         stats.newton_iterations += self.snes.getIterationNumber()
         stats.linear_iterations += self.snes.getLinearSolveIterations() + self.extra_krylov
-        stats.converged_reason = REASONS.get(reason, str(reason))
-        return reason > 0
+        stats.converged_reason = "CONVERGED_ROUNDOFF" if roundoff else REASONS.get(reason, str(reason))
+        return roundoff or reason > 0
+
+    def _residual_within_roundoff(self, x):
+        """F(x) and J(x) evaluated, then :meth:`_within_roundoff`."""
+        self._residual(self.snes, x, self.b)
+        self._stiffness_plus(self.A, self.j_n_jacobian)
+        return self._within_roundoff(x, self.A)
+
+    def _within_roundoff(self, x, A):
+        """Whether the residual F = ``self.b`` at the iterate x, whose Jacobian is A, meets the target up to its
+        own round-off: ‖(|F| − ν)_+‖ <= target, row by row, with
+            ν_i = ROUNDOFF_FACTOR ε (|J_ii| ‖x‖_∞ + λ |L_i|),   ε the machine epsilon.
+        A row of F sums terms of the size of (|J| |x|)_i (the bulk: K's row times x; Γ_C: c_n (x_n − g_0)_+^{m_n},
+        whose difference x_n − g_0 carries the round-off of x_n and g_0, both <= ‖x‖_∞ where the foundation
+        is active, times the law's slope, in J_ii) and λ L_i; each is computed to ~ε of its size, and a row
+        of J sums to a few times its diagonal. With a stiff foundation and a gap this floor lies far above the
+        target 1e-10 ‖L‖: c_n = 1e8 E and g_0 = 0.01 on the unit square left ‖F‖ at 3e-12 against a target
+        of 4e-13, where every Newton step only moved x by its round-off, and the solve failed after all
+        fallbacks (c_n = 1e7 E converged). The excess over ν, not ‖F‖, must meet the target, so a residual
+        above its round-off anywhere (in the bulk ν_i is ~10 ε K_ii ‖x‖_∞) still counts in full. The factor
+        is the option ``roundoff_factor`` (0: off)."""
+        noise = A.getDiagonal()
+        noise.abs()
+        noise.scale(x.norm(PETSc.NormType.NORM_INFINITY))
+        load = self.load.copy()
+        load.abs()
+        noise.axpy(self.load_factor, load)
+        noise.scale(float(self.options["roundoff_factor"]) * np.finfo(float).eps)
+        excess = np.maximum(np.abs(self.b.getArray(readonly=True)) - noise.getArray(readonly=True), 0.0)
+        load.destroy()
+        noise.destroy()
+        return math.sqrt(self.comm.allreduce(float(excess @ excess), op=MPI.SUM)) <= self.target
 
     # Fallbacks after a failed SNES solve, in this order, each from the last good iterate. None costs
     # anything unless a solve fails.

@@ -111,3 +111,19 @@ def test_the_amg_comparison_solves_to_the_accuracy_it_compares_at(tmp_path):
         for name in ("gamg", "hypre", "hypre_before"):
             assert r[f"residual_{name}"] <= 2e-10, (r["body"], r["mesh"], name)
         assert r["residual_floor"] > 1e-9
+
+
+def test_the_laws_beyond_the_family_converge_with_the_defaults(tmp_path):
+    """benchmarks/extremes.py on small meshes, 1 and 2 ranks, c_n/E = 1e9: all 36 members (m_n 1–3, with and
+    without gaps, 2D and 3D) converge with no options and no fallback; the penalties with a gap end at the
+    residual's round-off (they ended in an error after every fallback before)."""
+    out = tmp_path / "extremes.csv"
+    proc = run([ROOT / "benchmarks" / "extremes.py", "--np", "1", "2", "--cells", "16", "--cells3d", "4",
+                "--c-n", "1e9", "--csv", out], timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    with open(out) as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 36
+    assert all(r["reason"].startswith("CONVERGED") and not r["recoveries"] for r in rows)
+    penalties_with_gap = [r for r in rows if r["m_n"] == "1" and r["gap"] != "0"]
+    assert len(penalties_with_gap) == 8 and all(r["reason"] == "CONVERGED_ROUNDOFF" for r in penalties_with_gap)

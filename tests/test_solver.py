@@ -110,6 +110,11 @@ def test_the_solver_s_own_choices_are_options_of_the_same_layers(penalty_referen
     loose = solve_square(100, 2, "direct", {"snes_rtol": 1e-14, "atol_of_load": 1e-4})[1].newton_iterations
     tight = solve_square(100, 2, "direct", {"snes_rtol": 1e-14, "atol_of_load": 1e-12})[1].newton_iterations
     assert loose < tight
+    # the residual's round-off as a stop (test_a_stiff_penalty_with_a_gap_ends_at_the_round_off_of_its_residual)
+    problem, domain = square(1e8, 1, gap=0.01)
+    assert nc.solve(problem, domain).stats.converged_reason == "CONVERGED_ROUNDOFF"
+    with pytest.raises(InputError, match="fallbacks off"):
+        nc.solve(problem, domain, petsc_options={"roundoff_factor": 0, "fallbacks": "false"})
 
 
 def test_a_failing_krylov_solve_refreshes_the_preconditioner(penalty_reference):
@@ -169,6 +174,25 @@ def test_a_gap_the_body_closes_everywhere_takes_the_bilateral_step(nprocs):
         # (the same iterates: equal counts; on 3 ranks two identical solves differ by round-off, 1e-14)
         assert partial["on_off"] <= 1e-12 and partial["on"] == partial["off"]
         assert partial["off_bilateral"] > 0.1  # (the bilateral guess is wrong there)
+
+
+@pytest.mark.parametrize("nprocs", [1, 2, 3])
+def test_a_stiff_penalty_with_a_gap_ends_at_the_round_off_of_its_residual(nprocs):
+    """c_n/E = 1e8 and 1e12, m_n = 1, g_0 = 0.002(1 + x) closed everywhere: c_n g_0 computed to round-off
+    leaves ‖F‖ above 1e-10 ‖L‖ (2D: 3e-12 against 4e-13 at 128 x 128 cells), every Newton step then moved u by
+    its round-off only, and the solve ended with an error after all fallbacks (450 Newton steps; the 3D cube at
+    1e12 alike). Now it ends within the residual's round-off, in a few Newton steps and no fallback, at the
+    solution of the bilateral law solved independently (which leaves the foundation nowhere: the solution
+    of (7)), to 1e-12 of the largest displacement, on any partition."""
+    proc = run([ROOT / "tests" / "mpi" / "roundoff.py"], nprocs)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert len(result) == 6
+    for case in result.values():
+        assert "error" not in case, case
+        assert case["reason"].startswith("CONVERGED") and case["recoveries"] == "" and case["newton"] <= 6
+        assert case["separated"] == 0.0 and case["to_bilateral"] <= 1e-12
+    assert sum(case["reason"] == "CONVERGED_ROUNDOFF" for case in result.values()) >= 4
 
 
 @pytest.mark.parametrize("preset", ["direct", "iterative"])

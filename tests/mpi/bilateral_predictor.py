@@ -11,37 +11,16 @@ which it closes only around x = 1/2 (the bilateral guess pulls it down elsewhere
 import json
 
 import numpy as np
-import ufl
 from mpi4py import MPI
 
-from dolfinx import fem
-from dolfinx.fem import petsc as fem_petsc
-
 import nc_dolfinx as nc
-from square import square_problem
-from nc_dolfinx import forms
+from square import bilateral_solution, max_difference, square_problem
 
 COMM = MPI.COMM_WORLD
 
 
 def problem(gap, preset):
     return square_problem(1e4, 1, gap=gap, preset=preset)
-
-
-def max_difference(a, b):
-    return COMM.allreduce(float(np.max(np.abs(a.x.array - b.x.array), initial=0.0)), MPI.MAX)
-
-
-def bilateral_solution(solution):
-    fields = solution.fields
-    V = solution.u.function_space
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    n = ufl.FacetNormal(V.mesh)
-    dC = forms.contact_measure(fields)
-    a = ufl.inner(fields.sigma(u), ufl.sym(ufl.grad(v))) * ufl.dx + fields.c_n * ufl.dot(u, n) * ufl.dot(v, n) * dC
-    L = ufl.inner(fields.f, v) * ufl.dx + fields.c_n * fields.gap * ufl.dot(v, n) * dC
-    options = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
-    return fem_petsc.LinearProblem(a, L, bcs=fields.boundary_conditions(V), petsc_options=options).solve()
 
 
 def counts(stats):
