@@ -28,7 +28,7 @@ COLUMNS = {
     "linear_iterations": "Krylov iterations summed over the level's Newton steps",
     "converged_reason": "PETSc SNES converged reason, or CONVERGED_ROUNDOFF (the residual within its round-off, see Solver)",
     "preconditioner_matrix": "matrix the preconditioner was built from at the end of the level (bulk | jacobian | auto)",
-    "recoveries": "what the solver did after a failure: gmres (CG met an indefinite preconditioner), refresh, stronger_pc, continuation (fallbacks after a failed SNES solve); empty if nothing failed",
+    "recoveries": "what the solver did after a failure: gmres (CG met an indefinite preconditioner), refresh, c_n_continuation, stronger_pc, continuation (fallbacks after a failed SNES solve; c_n_continuation first when the contact zone crept); empty if nothing failed",
     "max_contact_pressure": "max of the nodal contact pressure p >= 0 (lumped L² projection on Γ_C)",
     "elastic_energy": "½ a(u_h, u_h)",
     "contact_resultant": "∫_Γ_C p >= 0: the normal contact force",

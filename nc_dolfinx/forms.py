@@ -32,9 +32,10 @@ def penetration(u, fields, n=None):
     return positive_part(normal_displacement(u, n) - fields.gap)
 
 
-def contact_pressure(u, fields, n=None):
-    """p = c_n (u_n − g_0)_+^{m_n} = −σ_n(u) on Γ_C (law (4))."""
-    return fields.c_n * penetration(u, fields, n) ** fields.m_n
+def contact_pressure(u, fields, n=None, c_n=None):
+    """p = c_n (u_n − g_0)_+^{m_n} = −σ_n(u) on Γ_C (law (4)); ``c_n``: another coefficient than the
+    problem's (the solver's continuation in c_n)."""
+    return (fields.c_n if c_n is None else c_n) * penetration(u, fields, n) ** fields.m_n
 
 
 def contact_measure(fields, degree=CONTACT_QUADRATURE_DEGREE):
@@ -57,26 +58,35 @@ class NonlinearForms:
     bilateral_jacobian: ufl.Form = None
     gap_load: ufl.Form = None     # ∫_Γ_C c_n g_0 v_n
     separation: ufl.Form = None   # ∫_Γ_C (g_0 − u_n)_+: zero iff u closes the gap everywhere on Γ_C
+    # For the solver's continuation in c_n: ∫_Γ_C c_n du_n v_n (c_n's size against the body's stiffness),
+    # and these forms again with c_n replaced by scale·c_n (``scale`` a fem.Constant)
+    c_n_mass: ufl.Form = None
+    with_c_n_scale: object = None
 
 
-def normal_compliance_forms(u, fields):
-    """The forms of (7) on the space of ``u``: a, L, j_n, its Jacobian and the contact part of Π."""
+def normal_compliance_forms(u, fields, c_n_scale=None):
+    """The forms of (7) on the space of ``u``: a, L, j_n, its Jacobian and the contact part of Π
+    (``c_n_scale``: a fem.Constant s, the law's coefficient then s·c_n)."""
     V = u.function_space
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
     n = ufl.FacetNormal(fields.domain.mesh)
+    c_n = fields.c_n if c_n_scale is None else c_n_scale * fields.c_n
     a = ufl.inner(fields.sigma(du), physics.strain(v)) * ufl.dx
     dC = contact_measure(fields)
-    j_n = contact_pressure(u, fields, n) * normal_displacement(v, n) * dC
+    j_n = contact_pressure(u, fields, n, c_n) * normal_displacement(v, n) * dC
     L = ufl.inner(fields.f, v) * ufl.dx
     for group_id, g in fields.g.items():
         L += ufl.inner(g, v) * fields.ds(group_id)
     m = fields.m_n
-    contact_energy = fields.c_n / (m + 1) * penetration(u, fields, n) ** (m + 1) * dC
+    contact_energy = c_n / (m + 1) * penetration(u, fields, n) ** (m + 1) * dC
     pieces = NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
+    mass = c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC
     if float(m.value) == 1.0:  # (the law is linear where in contact: see NonlinearForms)
-        pieces.bilateral_jacobian = fields.c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC
-        pieces.gap_load = fields.c_n * fields.gap * normal_displacement(v, n) * dC
+        pieces.bilateral_jacobian = mass
+        pieces.gap_load = c_n * fields.gap * normal_displacement(v, n) * dC
         pieces.separation = positive_part(fields.gap - normal_displacement(u, n)) * dC
+    pieces.c_n_mass = mass
+    pieces.with_c_n_scale = lambda scale: normal_compliance_forms(u, fields, scale)
     return pieces
 
 

@@ -7,9 +7,11 @@ each Newton step, checked against the objective, so no step increases Π. Every 
 zero is a descent direction of Π (∇Π·d = −dᵀJd < 0), so inexact (Eisenstat–Walker) steps and Krylov
 solves stopped at their iteration limit are safe steps too. On a cold start with a gap and m_n = 1 the
 first step may be the bilateral one (all of Γ_C in contact, see _bilateral_predictor). A failed SNES solve
-is retried with a refreshed, then a stronger preconditioner, then by load continuation, before it ends
-the run; a solve whose residual stalls or fails within its own round-off (a stiff penalty with a gap)
-ends there, converged (see NonlinearSolver._within_roundoff).
+is retried with a refreshed preconditioner, by continuation in c_n, with a stronger preconditioner, then
+by load continuation, before it ends the run; a solve whose contact zone creeps (10 steps in a row cut by
+the line search) goes to the continuation in c_n first (see _retry_c_n_continuation); a solve whose
+residual stalls or fails within its own round-off (a stiff penalty with a gap) ends there, converged (see
+NonlinearSolver._within_roundoff).
 
 Options are layered (later wins): the preset's defaults, the problem file's ``[solver] petsc_options``,
 then ``-snes_*``/``-ksp_*``/``-pc_*`` flags from the command line. All are written into the PETSc
@@ -68,6 +70,7 @@ OWN_DEFAULTS = {
     "atol_of_load": 1e-10,
     "bilateral_predictor": True,   # see _bilateral_predictor
     "roundoff_factor": 10.0,       # ROUNDOFF_FACTOR below (0: the target alone ends a solve)
+    "creeping_steps": 10,          # CREEPING_STEPS below (0: never)
 }
 
 # hypre's BoomerAMG, the iterative preset's preconditioner (cold and warm starts, 2D and 3D): classical AMG
@@ -265,6 +268,11 @@ class _LineSearchFailure(Exception):
     over from the last iterate)."""
 
 
+class _Creeping(Exception):
+    """CREEPING_STEPS Newton steps in a row were cut short by the line search: the contact zone grows a
+    few points a step (see _retry_c_n_continuation); the SNES solve is abandoned for the c_n continuation."""
+
+
 class _ConvergedToRoundoff(Exception):
     """The residual of the current iterate lies within its own round-off (see _within_roundoff): the SNES
     solve ends there, converged."""
@@ -309,6 +317,11 @@ OBJECTIVE_ROUNDOFF = 1e-10
 # its last value, or when a solve fails.
 ROUNDOFF_FACTOR = OWN_DEFAULTS["roundoff_factor"]
 STALL_RATIO = 0.5
+# The c_n continuation (a fallback, see _retry_c_n_continuation): the first stage's foundation against the
+# body's stiffness, and the factor from one stage to the next.
+C_N_SOFT = 0.03
+C_N_CONTINUATION_FACTOR = 100.0
+CREEPING_STEPS = OWN_DEFAULTS["creeping_steps"]
 
 
 class Forcing:
@@ -410,6 +423,7 @@ class NonlinearSolver:
         self.left_cg = False  # see _leave_cg
         self.bilateral_candidate = False  # see _bilateral_predictor
         self.extra_krylov = 0  # Krylov iterations SNES does not count (the predictor's)
+        self.cut_steps, self.creeping_check, self.crept = 0, False, False  # see _Creeping
         self._reset_preconditioner_state()
 
     def _configure(self, matrix):
@@ -426,6 +440,7 @@ class NonlinearSolver:
         self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(closed_jacobian(forms.j_n_jacobian))
         self.contact_energy = fem.form(forms.contact_energy)
         self.bilateral = (forms.bilateral_jacobian, forms.gap_load, forms.separation)  # compiled when used
+        self.forms = forms  # (the c_n continuation builds its forms from them, when used)
         self.K = fem_petsc.assemble_matrix(fem.form(forms.a), bcs=self.bcs)
         self.K.assemble()
         self.load = fem_petsc.assemble_vector(fem.form(forms.L))
@@ -508,6 +523,10 @@ class NonlinearSolver:
                 return True
         scaled = _flag(self.options["line_minimisation"]) and self._line_minimisation(x, y)
         self.predicted_full_step = not scaled
+        self.cut_steps = self.cut_steps + 1 if scaled else 0
+        limit = float(self.options["creeping_steps"])
+        if self.creeping_check and 0 < limit <= self.cut_steps:
+            raise _Creeping()
         return True
 
     def _predict(self, y):
@@ -814,7 +833,7 @@ class NonlinearSolver:
         if self.forcing is not None:
             self.forcing.start(target)
         self.extra_krylov, self.predicted_full_step = 0, False
-        self.target, self.previous_fnorm = target, math.inf
+        self.target, self.previous_fnorm, self.cut_steps = target, math.inf, 0
         roundoff = False  # ended within the residual's round-off (see _within_roundoff)
         try:
             self.snes.solve(None, x)
@@ -823,6 +842,8 @@ class NonlinearSolver:
             reason = PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH
         except _ConvergedToRoundoff:  # x is the iterate whose residual was checked
             reason, roundoff = PETSc.SNES.ConvergedReason.CONVERGED_ITERATING, True
+        except _Creeping:  # x is still the iterate the line search started from
+            reason, self.crept = PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH, True
         if reason < 0 and self._residual_within_roundoff(x):
             roundoff = True  # the solve failed where Newton could not do better
         stats.newton_iterations += self.snes.getIterationNumber()
@@ -863,7 +884,7 @@ class NonlinearSolver:
 
     # Fallbacks after a failed SNES solve, in this order, each from the last good iterate. None costs
     # anything unless a solve fails.
-    def _retry_refreshed(self, x, stats, target):
+    def _retry_refreshed(self, x, stats, target, start):
         """Rebuild P from J at the current iterate (a stale P is the cheap cause of a stall); if MUMPS ran
         out of workspace, with a larger one."""
         self._widen_mumps_workspace()
@@ -886,12 +907,60 @@ class NonlinearSolver:
             set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
             pc.reset()
 
-    def _retry_stronger(self, x, stats, target):
+    def _retry_stronger(self, x, stats, target, start):
         """P = J at every Newton step and GMRES instead of CG (robust to a PC that is not SPD, as seen
         with CG + GAMG on a 3D penalty problem)."""
         self.mode, self.force_refresh = "jacobian", True
         self._leave_cg()
         return self._snes_solve(x, stats, target)
+
+    def _retry_c_n_continuation(self, x, stats, target, start):
+        """Continuation in c_n from the initial guess: the law with s·c_n, s from a soft foundation up by
+        C_N_CONTINUATION_FACTOR per stage, each stage solved from the last, then c_n itself. A stiff foundation
+        and a contact zone that the first step does not cover (a cantilever sagging onto it: its tip
+        touches first) make Newton's line search stop each step where the next points touch; with c_n/E =
+        1e9 the zone grew by a few nodes a step and every other fallback failed (180–240 Newton steps, a
+        10 × 1 cantilever; `benchmarks/extremes.py`). On a soft foundation the zone settles in a few steps,
+        and each stiffer stage starts from nearly its own contact zone (the same cantilever: 9 creeping steps,
+        then 6 stages and c_n itself in 34 Newton steps). The stages' forms (c_n times a Constant) are
+        compiled on the first use. Skipped where c_n is soft already (s would be >= 1)."""
+        scale = fem.Constant(self.u.function_space.mesh, PETSc.ScalarType(1.0))
+        s = self._soft_c_n_scale()
+        if s >= 1.0:
+            return False
+        scaled = self.forms.with_c_n_scale(scale)
+        original = (self.j_n, self.j_n_jacobian, self.contact_energy, self.bilateral)
+        self.j_n, self.j_n_jacobian = fem.form(scaled.j_n), fem.form(closed_jacobian(scaled.j_n_jacobian))
+        self.contact_energy = fem.form(scaled.contact_energy)
+        self.bilateral = (scaled.bilateral_jacobian, scaled.gap_load, scaled.separation)
+        start.copy(x)
+        self.creeping_check = False  # (each stage runs to its end)
+        try:
+            while s < 1.0:
+                scale.value = s
+                self.force_refresh, self.bilateral_candidate = True, x.norm() == 0.0
+                if not self._snes_solve(x, stats, target):
+                    return False
+                s *= C_N_CONTINUATION_FACTOR
+        finally:
+            self.j_n, self.j_n_jacobian, self.contact_energy, self.bilateral = original
+        self.force_refresh = True
+        return self._snes_solve(x, stats, target)
+
+    def _soft_c_n_scale(self):
+        """The scale s of the first stage of the c_n continuation: s·c_n against the body's stiffness,
+        max_i (s C_ii / K_ii) with C = ∫_Γ_C c_n du_n v_n, equal to C_N_SOFT (on the cantilever of
+        _retry_c_n_continuation s·c_n = 2.5 E; cold solves there took 6 Newton steps with c_n = E, 9 with
+        10 E, 24 with 1e3 E)."""
+        C = fem_petsc.assemble_matrix(fem.form(self.forms.c_n_mass))  # (Γ_C's pattern only: no bcs)
+        C.assemble()
+        c, k = C.getDiagonal(), self.K.getDiagonal()
+        c.pointwiseDivide(c, k)
+        fem_petsc.set_bc(c, self.bcs)  # (the clamped dofs: zero)
+        ratio = c.max()[1]
+        for obj in (C, c, k):
+            obj.destroy()
+        return C_N_SOFT / ratio if ratio > 0.0 else 1.0
 
     def _retry_continuation(self, x, stats, target, start, factor):
         """Load continuation from the initial guess: increments of the load factor, halved on failure."""
@@ -921,6 +990,10 @@ class NonlinearSolver:
         target = self._target(self.b.norm())
         start = x.copy()
         used = []
+        # (m_n = 1 only, where the bilateral forms exist: with m_n >= 2 the stages of the continuation took
+        # 2-3 times the Newton steps of the creeping solve itself, 20-35 on the stiff members of extremes.py)
+        self.crept = False
+        self.creeping_check = _flag(self.options["fallbacks"]) and self.bilateral[0] is not None
         try:
             self.bilateral_candidate = x.norm() == 0.0  # see _bilateral_predictor
             if self._snes_solve(x, stats, target) or not _flag(self.options["fallbacks"]):
@@ -928,11 +1001,15 @@ class NonlinearSolver:
                     return used
                 raise InputError(f"SNES diverged ({stats.converged_reason}) after {stats.newton_iterations} "
                                  "Newton iterations (fallbacks off); try -fallbacks true")
-            for name, retry in (("refresh", self._retry_refreshed), ("stronger_pc", self._retry_stronger)):
+            retries = [("refresh", self._retry_refreshed), ("c_n_continuation", self._retry_c_n_continuation),
+                       ("stronger_pc", self._retry_stronger)]
+            if self.crept:  # (the contact zone crept: the continuation first)
+                retries = [retries[1], retries[0], retries[2]]
+            for name, retry in retries:
                 used.append(name)
                 if not np.all(np.isfinite(x.array)):
                     start.copy(x)
-                if retry(x, stats, target):
+                if retry(x, stats, target, start):
                     return used
             used.append("continuation")
             if self._retry_continuation(x, stats, target, start, factor):

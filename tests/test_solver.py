@@ -146,7 +146,8 @@ def test_cg_on_an_indefinite_preconditioner_gives_way_to_gmres(nprocs):
     if nprocs == 1:
         proc = run([script, "cg"], nprocs)
         kept = json.loads(proc.stdout.strip().splitlines()[-1])["indefinite"]
-        assert "SNES diverged" in kept.get("error", "") or kept["recoveries"].startswith("refresh,stronger_pc")
+        assert "SNES diverged" in kept.get("error", "") or (kept["recoveries"].startswith("refresh,")
+                                                             and kept["recoveries"].endswith("stronger_pc"))
 
 
 @pytest.mark.parametrize("nprocs", [1, 2, 3])
@@ -193,6 +194,24 @@ def test_a_stiff_penalty_with_a_gap_ends_at_the_round_off_of_its_residual(nprocs
         assert case["reason"].startswith("CONVERGED") and case["recoveries"] == "" and case["newton"] <= 6
         assert case["separated"] == 0.0 and case["to_bilateral"] <= 1e-12
     assert sum(case["reason"] == "CONVERGED_ROUNDOFF" for case in result.values()) >= 4
+
+
+@pytest.mark.parametrize("nprocs", [1, 2, 3])
+def test_a_contact_zone_that_creeps_is_reached_by_continuation_in_c_n(nprocs):
+    """A cantilever sagging onto a foundation of c_n/E = 1e9 with a gap (tests/mpi/cantilever.py, 2D and 3D):
+    its tip touches first, every Newton step was then cut where the next points touch, and the 2D solve ended
+    in an error after every fallback (450 Newton steps). After 10 cut steps in a row the solver now goes to
+    its continuation in c_n, from a soft foundation up: converged in ≤ 50 Newton steps in all, at the
+    solution reached by hand (c_n = 1, 1e2, …, 1e9 through the public API, each from the last) to 1e-10 of
+    the largest displacement, on any partition (the 3D run on 2 ranks first failed in the soft stage's
+    set-up: a matrix assembled with Dirichlet rows outside its pattern)."""
+    proc = run([ROOT / "tests" / "mpi" / "cantilever.py"], nprocs)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    for case in result.values():
+        assert "error" not in case, case
+        assert case["reason"].startswith("CONVERGED") and case["recoveries"] == "c_n_continuation"
+        assert case["newton"] <= 50 and case["to_reference"] <= 1e-10
 
 
 @pytest.mark.parametrize("preset", ["direct", "iterative"])
@@ -277,7 +296,7 @@ def test_when_nothing_helps_the_error_is_one_clear_line():
         solve_square(1e4, 1, "iterative", {"snes_max_it": 1})
     message = str(err.value)
     assert "\n" not in message and "SNES diverged (DIVERGED_MAX_IT)" in message
-    assert "fallbacks tried: refresh, stronger_pc, continuation" in message
+    assert "fallbacks tried: refresh, c_n_continuation, stronger_pc, continuation" in message
 
 
 def objective_history(c_n, m_n):
