@@ -447,6 +447,7 @@ class NonlinearSolver:
         self.load.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fem_petsc.set_bc(self.load, self.bcs)
         self.load_factor = 1.0
+        self.load_abs = None  # |L|, made when _within_roundoff first needs it
         self.xKx = (None, None, 0.0)  # (x's handle, its state, xᵀKx): see _residual
         self.contact = fem_petsc.create_vector(self.j_n)
         self.b = fem_petsc.create_vector(self.j_n)
@@ -873,12 +874,12 @@ class NonlinearSolver:
         noise = A.getDiagonal()
         noise.abs()
         noise.scale(x.norm(PETSc.NormType.NORM_INFINITY))
-        load = self.load.copy()
-        load.abs()
-        noise.axpy(self.load_factor, load)
+        if self.load_abs is None:  # |L| (L is assembled once)
+            self.load_abs = self.load.copy()
+            self.load_abs.abs()
+        noise.axpy(self.load_factor, self.load_abs)
         noise.scale(float(self.options["roundoff_factor"]) * np.finfo(float).eps)
         excess = np.maximum(np.abs(self.b.getArray(readonly=True)) - noise.getArray(readonly=True), 0.0)
-        load.destroy()
         noise.destroy()
         return math.sqrt(self.comm.allreduce(float(excess @ excess), op=MPI.SUM)) <= self.target
 
@@ -919,10 +920,10 @@ class NonlinearSolver:
         C_N_CONTINUATION_FACTOR per stage, each stage solved from the last, then c_n itself. A stiff foundation
         and a contact zone that the first step does not cover (a cantilever sagging onto it: its tip
         touches first) make Newton's line search stop each step where the next points touch; with c_n/E =
-        1e9 the zone grew by a few nodes a step and every other fallback failed (180–240 Newton steps, a
+        1e9 the zone grew by a few nodes a step and every other fallback failed (177–242 Newton steps, a
         10 × 1 cantilever; `benchmarks/extremes.py`). On a soft foundation the zone settles in a few steps,
         and each stiffer stage starts from nearly its own contact zone (the same cantilever: 9 creeping steps,
-        then 6 stages and c_n itself in 34 Newton steps). The stages' forms (c_n times a Constant) are
+        then 5 stages and c_n itself in 34 Newton steps). The stages' forms (c_n times a Constant) are
         compiled on the first use. Skipped where c_n is soft already (s would be >= 1)."""
         scale = fem.Constant(self.u.function_space.mesh, PETSc.ScalarType(1.0))
         s = self._soft_c_n_scale()
@@ -1048,5 +1049,6 @@ class NonlinearSolver:
 
     def destroy(self):
         owned = [self.snes, self.A, self.K, self.b, self.contact, self.load, self.work, self.trial, self.predicted]
-        for obj in owned + ([self.P] if self.P is not self.K else []):
+        owned += [self.P] if self.P is not self.K else []
+        for obj in owned + ([self.load_abs] if self.load_abs is not None else []):
             obj.destroy()

@@ -1,6 +1,6 @@
 """The solver family's square (benchmarks/family.py): unit square, E = 1, ν = 0.3, clamped top, f = (0, −0.5),
-contact at the bottom (and the unit cube alike in 3D); shared by tests/test_solver.py and the MPI scripts
-beside this file, with the reference for a gap the body closes everywhere (bilateral_solution)."""
+contact at the bottom; shared by tests/test_solver.py and the MPI scripts beside this file, with the
+reference for a gap the body closes everywhere (bilateral_solution)."""
 import numpy as np
 import ufl
 from mpi4py import MPI
@@ -11,19 +11,15 @@ import nc_dolfinx as nc
 from nc_dolfinx import forms
 
 
-def square_problem(c_n, m_n, cells=24, gap=0.0, preset=None, dim=2):
-    """The square (dim 3: the cube, free on its four sides) as an :class:`nc.Problem` with c_n, m_n, the gap
-    and, if given, the solver preset."""
-    if dim == 2:
-        mesh = {"rectangle": [[0, 0], [1, 1]], "cells": [cells, cells], "neumann": ["left", "right"]}
-    else:
-        mesh = {"box": [[0, 0, 0], [1, 1, 1]], "cells": [cells] * 3, "neumann": ["left", "right", "front", "back"]}
-    data = {"mesh": {**mesh, "dirichlet": ["top"], "contact": ["bottom"]},
-            "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0"] * (dim - 1) + ["-0.5"]},
+def square_problem(c_n, m_n, cells=24, gap=0.0, preset=None):
+    """The square as an :class:`nc.Problem` with c_n, m_n, the gap and, if given, the solver preset."""
+    data = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [cells, cells], "dirichlet": ["top"],
+                     "neumann": ["left", "right"], "contact": ["bottom"]},
+            "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]},
             "contact": {"c_n": c_n, "m_n": m_n, "gap": gap}}
     if preset is not None:
         data["solver"] = {"preset": preset}
-    return nc.Problem.from_dict(data, "square" if dim == 2 else "cube")
+    return nc.Problem.from_dict(data, "square")
 
 
 def bilateral_solution(solution):
