@@ -27,7 +27,8 @@ FLOOR_OPTIONS = {"ksp_type": "cg", "pc_type": "gamg", "mg_levels_ksp_type": "che
 _BOOMERAMG = {"ksp_type": "cg", "pc_type": "hypre", "pc_hypre_type": "boomeramg",
               "pc_hypre_boomeramg_coarsen_type": "HMIS", "pc_hypre_boomeramg_interp_type": "ext+i",
               "pc_hypre_boomeramg_P_max": 4}
-FLOOR_HYPRE = {2: {**_BOOMERAMG, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.25},
+FLOOR_HYPRE = {2: {**_BOOMERAMG, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_agg_num_paths": 2,
+                   "pc_hypre_boomeramg_strong_threshold": 0.25},
                3: {**_BOOMERAMG, "pc_hypre_boomeramg_agg_nl": 2, "pc_hypre_boomeramg_strong_threshold": 0.5,
                    "pc_hypre_boomeramg_relax_type_all": "Chebyshev"}}
 

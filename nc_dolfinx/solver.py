@@ -80,6 +80,11 @@ OWN_DEFAULTS = {
 # hypre's recommendation per dimension, 0.25 in 2D and 0.5 in 3D. The smoother is PETSc's default for it,
 # symmetric hybrid Gauss–Seidel, in 2D; in 3D a Chebyshev polynomial (parallel as it is serial) with two
 # levels of aggressive coarsening: more CG iterations, but each ~40 % cheaper and the set-up ~40 % faster.
+# In 2D the aggressive level takes a point at distance 2 as strongly connected only through 2 paths
+# (hypre's agg_num_paths; 1 by default), so it coarsens less aggressively, and CG needs half the
+# iterations: one solve to Newton's accuracy on the family's square 16 instead of 35 (0.42 s instead of
+# 0.57 s), on its two materials 19 instead of 39; 3 or 4 paths cost twice the set-up; in 3D 25 instead of
+# 35 iterations in the same time, so 1 path is kept there (benchmarks/README.md, "Two paths").
 # Measured (benchmarks/README.md, "BoomerAMG and the forcing terms", benchmarks/amg.py: one linear solve to
 # Newton's accuracy) against GAMG set up as DOLFINx's elasticity demo does (below): the family's 3D cube 2.0 s
 # instead of 3.5 s serially, the 2D square 0.62 s instead of 1.46 s; GAMG needs 51–58 CG iterations on the
@@ -88,7 +93,8 @@ OWN_DEFAULTS = {
 # on the cube refined once).
 HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
          "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4}
-HYPRE_BY_DIM = {2: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_strong_threshold": 0.25},
+HYPRE_BY_DIM = {2: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_agg_num_paths": 2,
+                    "pc_hypre_boomeramg_strong_threshold": 0.25},
                 3: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 2, "pc_hypre_boomeramg_strong_threshold": 0.5,
                     "pc_hypre_boomeramg_relax_type_all": "Chebyshev"}}
 # Smoothed-aggregation AMG for elasticity (``-pc_type gamg``, or Trilinos ML: ``-pc_type ml``), set up as in

@@ -387,6 +387,7 @@ def test_auto_picks_by_dimension_size_and_initial_guess():
         assert options["pc_type"] == "hypre" and options["pc_hypre_boomeramg_coarsen_type"] == "HMIS"
         assert options["pc_hypre_boomeramg_strong_threshold"] == {2: 0.25, 3: 0.5}[dim]
         assert options["pc_hypre_boomeramg_agg_nl"] == {2: 1, 3: 2}[dim]
+        assert options.get("pc_hypre_boomeramg_agg_num_paths") == {2: 2, 3: None}[dim]
     gamg = resolve_options({"pc_type": "gamg"}, 3, 10 ** 5, True)[1]
     assert gamg["pc_type"] == "gamg" and gamg["pc_gamg_reuse_interpolation"] is True
     hypre = resolve_options({"preset": "direct", "pc_type": "hypre"}, 3, 10 ** 5, False)[1]
