@@ -83,7 +83,7 @@ OWN_DEFAULTS = {
 # In 2D the aggressive level takes a point at distance 2 as strongly connected only through 2 paths
 # (hypre's agg_num_paths; 1 by default), so it coarsens less aggressively, and CG needs half the
 # iterations: one solve to Newton's accuracy on the family's square 16 instead of 35 (0.42 s instead of
-# 0.57 s), on its two materials 19 instead of 39; 3 or 4 paths cost twice the set-up; in 3D 25 instead of
+# 0.57 s), on its two materials 19 instead of 39; 3 or 4 paths took twice the time; in 3D 25 instead of
 # 35 iterations in the same time, so 1 path is kept there (benchmarks/README.md, "Two paths").
 # Measured (benchmarks/README.md, "BoomerAMG and the forcing terms", benchmarks/amg.py: one linear solve to
 # Newton's accuracy) against GAMG set up as DOLFINx's elasticity demo does (below): the family's 3D cube 2.0 s
