@@ -61,16 +61,16 @@ NEWTON_DEFAULTS = {
 # false`` on the command line, ``[solver] petsc_options``); not passed to PETSc.
 OWN_DEFAULTS = {
     "line_minimisation": True,     # the line search of _line_minimisation (false: SNES's own, on Π for bt)
-    "pc_refresh_misfit": 0.3,      # MISFIT_MAX below
-    "pc_refresh_growth": 3.0,      # KRYLOV_GROWTH below
+    "pc_refresh_misfit": 0.3,      # see the preconditioner refresh below
+    "pc_refresh_growth": 3.0,      # see the preconditioner refresh below
     "ew_rtol0_unsupported": 0.3,   # see _first_krylov_tolerance
     "fallbacks": True,             # false: a failed SNES solve ends the run at once
     # Unless an snes_atol is given, ‖F‖ <= atol_of_load ‖L‖ also counts as converged: with a good initial
     # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
     "atol_of_load": 1e-10,
     "bilateral_predictor": True,   # see _bilateral_predictor
-    "roundoff_factor": 10.0,       # ROUNDOFF_FACTOR below (0: the target alone ends a solve)
-    "creeping_steps": 10,          # CREEPING_STEPS below (0: never)
+    "roundoff_factor": 10.0,       # see _within_roundoff (0: the target alone ends a solve)
+    "creeping_steps": 10,          # see _Creeping (0: never)
 }
 
 # hypre's BoomerAMG, the iterative preset's preconditioner (cold and warm starts, 2D and 3D): classical AMG
@@ -275,7 +275,7 @@ class _LineSearchFailure(Exception):
 
 
 class _Creeping(Exception):
-    """CREEPING_STEPS Newton steps in a row were cut short by the line search: the contact zone grows a
+    """``creeping_steps`` Newton steps in a row were cut short by the line search: the contact zone grows a
     few points a step (see _retry_c_n_continuation); the SNES solve is abandoned for the c_n continuation."""
 
 
@@ -304,30 +304,26 @@ def closed_jacobian(jacobian):
 
 
 # Preconditioner refresh ("auto"): the preconditioning matrix P is rebuilt from the current Jacobian J
-# when (a) the last Krylov solve failed, or (b) it needed more than KRYLOV_GROWTH times the fewest
+# when (a) the last Krylov solve failed, or (b) it needed more than pc_refresh_growth times the fewest
 # iterations per decade of residual reduction seen since P was built (and more than KRYLOV_MIN_ITS), or
-# (c) J and P differ by more than MISFIT_MAX along the last Newton step y: |yᵀ(J − P)y| / yᵀPy. (c) is
+# (c) J and P differ by more than pc_refresh_misfit along the last Newton step y: |yᵀ(J − P)y| / yᵀPy. (c) is
 # what fires on the family's foundations with m_n > 1 after the first step from J(0) = K (misfit 2.6–44:
 # CG then needed 41–47 iterations in all instead of 55–80). All are global numbers: every rank decides alike.
-KRYLOV_GROWTH = OWN_DEFAULTS["pc_refresh_growth"]
 # MUMPS's INFOG(1) when an internal array sized from the analysis's estimate is too small (-9, the main
 # workspace S, is the one seen here); for each, MUMPS's user guide advises a larger ICNTL(14).
 MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -12, -14, -17, -20)
 KRYLOV_MIN_ITS = 20
-MISFIT_MAX = OWN_DEFAULTS["pc_refresh_misfit"]
 # Line minimisation (see _line_minimisation).
 WOLFE_ETA = 0.5
 LINE_TOL = 0.1
 OBJECTIVE_ROUNDOFF = 1e-10
 # Round-off of the residual (see _within_roundoff): checked when ‖F‖ no longer falls below STALL_RATIO times
 # its last value, or when a solve fails.
-ROUNDOFF_FACTOR = OWN_DEFAULTS["roundoff_factor"]
 STALL_RATIO = 0.5
 # The c_n continuation (a fallback, see _retry_c_n_continuation): the first stage's foundation against the
 # body's stiffness, and the factor from one stage to the next.
 C_N_SOFT = 0.03
 C_N_CONTINUATION_FACTOR = 100.0
-CREEPING_STEPS = OWN_DEFAULTS["creeping_steps"]
 
 
 class Forcing:
@@ -406,7 +402,7 @@ class NonlinearSolver:
         ``preconditioner_matrix`` is the matrix the PC is built from:
         "auto": J(u_0) at the initial guess (K itself on a cold start, the contact stiffness of the
         transferred solution on a nested level), rebuilt from the current J when it no longer fits (see
-        KRYLOV_GROWTH) or a Krylov solve failed; "bulk": K, set up once per mesh; "jacobian": J at every
+        pc_refresh_growth) or a Krylov solve failed; "bulk": K, set up once per mesh; "jacobian": J at every
         Newton step.
         The objective Π = ½xᵀKx − Lᵀx + ``forms.contact_energy`` (its non-quadratic Γ_C part) drives the
         line search.
@@ -665,7 +661,7 @@ class NonlinearSolver:
         return misfit
 
     def _krylov_grew(self):
-        """The last Krylov solve failed, or needed more than KRYLOV_GROWTH times the fewest iterations per
+        """The last Krylov solve failed, or needed more than pc_refresh_growth times the fewest iterations per
         decade seen since P was built (solves of >= 3 iterations; the first, loose EW solves often need 1)."""
         its, decades, failed = self._last_krylov_solve()
         rate = its / max(decades, 0.5)
@@ -867,7 +863,7 @@ class NonlinearSolver:
     def _within_roundoff(self, x, A):
         """Whether the residual F = ``self.b`` at the iterate x, whose Jacobian is A, meets the target up to its
         own round-off: ‖(|F| − ν)_+‖ <= target, row by row, with
-            ν_i = ROUNDOFF_FACTOR ε (|J_ii| ‖x‖_∞ + λ |L_i|),   ε the machine epsilon.
+            ν_i = roundoff_factor ε (|J_ii| ‖x‖_∞ + λ |L_i|),   ε the machine epsilon.
         A row of F sums terms of the size of (|J| |x|)_i (the bulk: K's row times x; Γ_C: c_n (x_n − g_0)_+^{m_n},
         whose difference x_n − g_0 carries the round-off of x_n and g_0, both <= ‖x‖_∞ where the foundation
         is active, times the law's slope, in J_ii) and λ L_i; each is computed to ~ε of its size, and a row
