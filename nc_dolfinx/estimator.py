@@ -24,15 +24,17 @@ and 0 (normal): the same term up to the factor 4.
 Every quantity is assembled against DG0 test functions over cells, interior facets, Neumann facets and
 contact/symmetry facets (or computed from the vertex coordinates: h_K, h_F), so it is parallel with
 ghost cells on facets only. The integrals are grouped into few assemblies (one for the cells, the interior
-facets, Γ_C and the symmetry planes, one per Neumann slot below): each has a fixed cost. The interior
-facets' jumps are constant on each facet (P1, cellwise constant material) and use a one-point rule, which
-lets their assembly skip the facet permutations (:func:`compile_form`). Constant data
+facets, Γ_C, the symmetry planes and the Neumann facets where g is constant; one per layer below where g
+varies): each has a fixed cost, the interior facets' loop the largest. Every facet term of η_K² carries the
+factor h_K of its cell, applied after assembly. The interior facets' jumps, and σν − g on a Neumann facet
+with constant g, are constant on each facet (P1, cellwise constant material) and use a one-point rule,
+which lets the interior facets' assembly skip the facet permutations (:func:`compile_form`). Constant data
 have no oscillation: a constant f skips the patch sum, a constant g its facets' part of ζ (both would
 otherwise add round-off).
-- g_F: the means are per *facet*, and a cell may have up to tdim + 1 Neumann facets. Each Neumann facet is
-  sorted by its local index i ∈ {0, …, tdim} in its cell (its *slot*), so ``ds`` over one slot sees at
-  most one facet per cell and the per-facet integrals ∫_F g, ∫_F (σν − g), ∫_F |g|², |F| come out
-  separately; slots used on no rank are skipped.
+- g_F where g varies: the means are per *facet*, and a cell may have up to tdim + 1 Neumann facets. The
+  facets are dealt into layers with at most one facet per cell (:func:`facet_layers`; one layer unless a
+  cell has two facets there), so ``ds`` over one layer gives the per-facet integrals ∫_F g, ∫_F (σν − g),
+  ∫_F |g|², |F| cell by cell; they are combined per facet before the ghost cells' sums go to their owners.
 - the patch sum over ω_K: by inclusion–exclusion over the sub-simplices of K (:func:`patch_sum`).
 - η_4: the kink of (·)_+ inside a facet. On edges (2D) the residual is integrated unsplit with a Gauss rule
   of degree CONTACT_DEGREE = 24 (13 points; measured ≤ 3.2e-4 relative in η_4K on kinked edges, the
@@ -53,7 +55,7 @@ import dolfinx
 from dolfinx import fem
 
 from . import forms, physics
-from .estimator_geometry import cell_diameters, facet_diameters, owned_values_with_ghosts, patch_sum, slot_tags
+from .estimator_geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
 from .estimator_kink import law_residual_squared
 
 __all__ = ["NAMES", "CELL_DEGREE", "CONTACT_DEGREE", "CONTACT_DEGREE_SPLIT", "Estimate", "assemble_cellwise",
@@ -134,20 +136,17 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     gdim = msh.geometry.dim
     Q = fields.domain.region.function_space  # the mesh's DG0 space (building one costs a dofmap)
     # One vector DG0 space for the assemblies of several quantities at once (the cell and facet terms
-    # need gdim + 6 components, a Neumann slot 2 gdim + 3).
-    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=max(gdim + 6, 2 * gdim + 3))
-    n = ufl.FacetNormal(msh)
-    s = fields.sigma(u)
+    # need gdim + 5 components, a layer of Neumann facets 2 gdim + 2).
+    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=max(gdim + 5, 2 * gdim + 2))
     h_K = cell_diameters(msh)
 
-    area, f_int, f_sq, eta_2_sq, eta_3_sq, eta_4_sq = _cell_and_facet_terms(
-        u, fields, Qv, contact_degree, cell_degree, split_kinks)
+    area, f_int, f_sq, facet_terms = _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree,
+                                                           split_kinks)
     f_mean_sq = np.sum(f_int ** 2, axis=1) / area  # ‖f_K‖_K² = |∫_K f|² / |K|
     eta_1_sq = h_K ** 2 * f_mean_sq
-
-    # Neumann facets, one slot at a time: per-facet means of g and of σν − g.
-    eta_2_neumann, osc_g = _neumann_facet_terms(fields, s, n, Qv, cell_degree)
-    eta_2_sq += h_K * eta_2_neumann
+    eta_2_varying_g, osc_g = _varying_neumann_terms(u, fields, Qv, cell_degree)
+    eta_2_sq, eta_3_sq, eta_4_sq = (h_K * terms for terms in (facet_terms[:, 0] + eta_2_varying_g,
+                                                              facet_terms[:, 1], facet_terms[:, 2]))
 
     zeta_sq = osc_g
     if not _constant(fields.f):  # a constant f equals its means f_K: no oscillation (nor patch sum)
@@ -174,61 +173,64 @@ def _constant(expression):
 
 
 def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kinks):
-    """One assembly, per owned cell: |K|, ∫_K f, ∫_K |f|²; η_2K² without its Neumann part: over its interior
-    facets Σ h_K ‖[σ(u_h) ν_F]‖²_F (the full jump, each side weighted by its own h_K) and over its symmetry
-    facets Σ h_K ‖σ_t‖²_F; over its contact facets Σ h_K ‖σ_t‖²_F (η_3K²) and
-    Σ h_K ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F (η_4K²)."""
-    msh, gdim = fields.domain.mesh, fields.domain.mesh.geometry.dim
+    """One assembly, per owned cell: |K|, ∫_K f, ∫_K |f|², and its facet terms without the factor h_K
+    (columns of the last array): η_2K²/h_K but for the Neumann facets where g varies — over its interior
+    facets Σ ‖[σ(u_h) ν_F]‖²_F (the full jump), over its symmetry facets Σ ‖σ_t‖²_F, over its Neumann
+    facets with constant g Σ ‖σν − g‖²_F —, η_3K²/h_K = Σ ‖σ_t‖²_F and η_4K²/h_K =
+    Σ ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F over its contact facets."""
+    gdim = fields.domain.mesh.geometry.dim
     wv = ufl.TestFunction(Qv)
-    h, n, s, f = ufl.CellDiameter(msh), ufl.FacetNormal(msh), fields.sigma(u), fields.f
+    n, s, f = ufl.FacetNormal(fields.domain.mesh), fields.sigma(u), fields.f
     sigma_t = physics.tangential_stress(s, n)
     if split_kinks:
         law_squared = law_residual_squared(u, fields, n)
     else:
         law_squared = (forms.contact_pressure(u, fields, n) + physics.normal_stress(s, n)) ** 2
+    area, eta_2, eta_3, eta_4 = gdim + 1, gdim + 2, gdim + 3, gdim + 4  # components of wv
     dx = ufl.dx(metadata={"quadrature_degree": 0 if _constant(f) else cell_degree})  # constant f: exact
     dC = forms.contact_measure(fields, contact_degree)
-    form = (_against(f, wv, 0) + ufl.inner(f, f) * wv[gdim] + wv[gdim + 5]) * dx \
-        + h * (ufl.inner(sigma_t, sigma_t) * wv[gdim + 1] + law_squared * wv[gdim + 2]) * dC
+    form = (_against(f, wv, 0) + ufl.inner(f, f) * wv[gdim] + wv[area]) * dx \
+        + (ufl.inner(sigma_t, sigma_t) * wv[eta_3] + law_squared * wv[eta_4]) * dC
     symmetry = tuple(fields.symmetry_axes)
     if symmetry:
-        form += h * ufl.inner(sigma_t, sigma_t) * wv[gdim + 3] * fields.ds(symmetry)
+        form += ufl.inner(sigma_t, sigma_t) * wv[eta_2] * fields.ds(symmetry)
+    one_point = {"quadrature_degree": 0}
+    for group in fields.ids["neumann"]:
+        g = fields.g.get(group, ufl.zero(gdim))
+        if _constant(g):  # σν − g is constant on the facet: one point
+            residual = s * n - g
+            form += ufl.inner(residual, residual) * wv[eta_2] * fields.ds(group, metadata=one_point)
     jump = s("+") * n("+") + s("-") * n("-")
     dS = ufl.dS(metadata={"quadrature_degree": 0})  # P1: the jump is constant on a facet; see compile_form
-    form += ufl.inner(jump, jump) * (h("+") * wv("+")[gdim + 4] + h("-") * wv("-")[gdim + 4]) * dS
+    form += ufl.inner(jump, jump) * (wv("+")[eta_2] + wv("-")[eta_2]) * dS
     values = assemble_cellwise(form, Qv)
-    eta_2_sq = values[:, gdim + 4] + values[:, gdim + 3] if symmetry else values[:, gdim + 4].copy()
-    return (values[:, gdim + 5], values[:, :gdim], values[:, gdim], eta_2_sq, values[:, gdim + 1],
-            values[:, gdim + 2])
+    return values[:, area], values[:, :gdim], values[:, gdim], values[:, eta_2:eta_4 + 1]
 
 
-def _neumann_facet_terms(fields, s, n, Qv, degree):
-    """Per cell: Σ_F |F| |σν − g_F|² (η_2's Neumann part) and Σ_F h_F ‖g − g_F‖_F² (ζ's Neumann part)."""
+def _varying_neumann_terms(u, fields, Qv, degree):
+    """Per owned cell, over its Neumann facets where g varies: Σ_F |F| |σν − g_F|² (η_2K²'s part without
+    h_K) and Σ_F h_F ‖g − g_F‖²_F (ζ_K²'s part), one assembly per layer of :func:`facet_layers`."""
     msh = fields.domain.mesh
-    gdim = msh.geometry.dim
-    groups = fields.ids["neumann"]
-    n_owned = Qv.dofmap.index_map.size_local
-    eta, osc = np.zeros(n_owned), np.zeros(n_owned)
-    if not groups:
-        return eta, osc
-    wv = ufl.TestFunction(Qv)
-    zero = ufl.as_vector([0.0] * gdim)
-    for j, tags in slot_tags(fields.domain, groups).items():
-        ds = ufl.Measure("ds", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": degree})
-        form = 0
-        for k, group in enumerate(groups):
-            g = fields.g.get(group, zero)
-            integrand = _against(s * n - g, wv, 0) + _against(g, wv, gdim)
-            varying = 0.0 if _constant(g) else 1.0  # a constant g equals its means g_F: no oscillation
-            form += (integrand + ufl.inner(g, g) * wv[2 * gdim] + wv[2 * gdim + 1]
-                     + varying * wv[2 * gdim + 2]) * ds(1 + k)
-        values = assemble_cellwise(form, Qv)
-        measure = values[:, 2 * gdim + 1]
-        cells = np.flatnonzero(measure > 0)
-        F = measure[cells]
-        eta[cells] += np.sum(values[cells, :gdim] ** 2, axis=1) / F
-        cells, F = cells[values[cells, 2 * gdim + 2] > 0], F[values[cells, 2 * gdim + 2] > 0]
-        g_mean_sq = np.sum(values[cells, gdim:2 * gdim] ** 2, axis=1) / F  # |∫_F g|² / |F|
-        g_norm_sq = np.maximum(values[cells, 2 * gdim] - g_mean_sq, 0.0)
-        osc[cells] += facet_diameters(msh, cells, j) * g_norm_sq
-    return eta, osc
+    gdim, tdim = msh.geometry.dim, msh.topology.dim
+    varying = sorted(group for group in fields.ids["neumann"]
+                     if group in fields.g and not _constant(fields.g[group]))  # absent: g = 0
+    per_cell = dolfinx.la.vector(msh.topology.index_map(tdim), bs=2)  # η_2 and ζ parts, ghosts included
+    terms = per_cell.array.reshape(-1, 2)
+    if varying:
+        wv, s, n = ufl.TestFunction(Qv), fields.sigma(u), ufl.FacetNormal(msh)
+        for tags, facets, cells in facet_layers(fields.domain, varying):
+            ds = ufl.Measure("ds", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": degree})
+            form = sum((_against(s * n - fields.g[group], wv, 0) + _against(fields.g[group], wv, gdim)
+                        + ufl.inner(fields.g[group], fields.g[group]) * wv[2 * gdim] + wv[2 * gdim + 1])
+                       * ds(1 + k) for k, group in enumerate(varying))
+            # Not sent to the owners yet: each cell's values are those of its one facet in the layer.
+            vec = fem.assemble_vector(compile_form(form))
+            values = vec.array.reshape(-1, Qv.dofmap.index_map_bs)[cells]
+            F = values[:, 2 * gdim + 1]
+            g_mean_sq = np.sum(values[:, gdim:2 * gdim] ** 2, axis=1) / F  # |∫_F g|² / |F|
+            terms[cells, 0] += np.sum(values[:, :gdim] ** 2, axis=1) / F  # a cell is once in a layer
+            h_F = diameters(msh, tdim - 1, facets)
+            terms[cells, 1] += h_F * np.maximum(values[:, 2 * gdim] - g_mean_sq, 0.0)
+    per_cell.scatter_reverse(dolfinx.la.ScatterMode.add)
+    n_owned = msh.topology.index_map(tdim).size_local
+    return terms[:n_owned, 0], terms[:n_owned, 1]

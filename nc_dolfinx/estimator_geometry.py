@@ -1,16 +1,14 @@
 """Mesh helpers of the estimator (Definition 5, §4.1), for triangles and tetrahedra alike.
 
 - :func:`cell_diameters`: h_K (the longest edge, = the diameter of a simplex) of the owned cells.
-- :func:`facet_diameters`: h_F of the facet with a given local index (|E| for an edge, the longest edge of
-  a triangular face), for ζ's Neumann part.
-- :func:`slot_tags`: boundary facets sorted by their local index in their cell (their *slot*), so that
-  ``ds`` over one slot sees at most one facet per cell and per-facet means come out of a cellwise
-  assembly.
+- :func:`diameters`: h_F of facets (|E| for an edge, the longest edge of a triangular face), for ζ's
+  Neumann part.
+- :func:`facet_layers`: boundary facets in layers with at most one facet per cell, so that ``ds`` over
+  one layer gives per-facet means from a cellwise assembly.
 - :func:`patch_sum`: Σ_{K' ⊂ ω_K} o_K' over the vertex patch ω_K, by inclusion–exclusion over the
   sub-simplices of K, parallel with facet ghosts only.
 
-A facet's local index is its position in its cell's row of the cell-to-facet connectivity; the cell's
-geometry nodes are its vertices (P1 geometry).
+The cell's geometry nodes are its vertices (P1 geometry).
 """
 import math
 
@@ -32,32 +30,28 @@ def cell_diameters(msh):
     return diameters(msh, tdim, np.arange(msh.topology.index_map(tdim).size_local))
 
 
-def facet_diameters(msh, cells, local_facet):
-    """h_F of the facet with local index ``local_facet`` (opposite that vertex) of each of the ``cells``."""
-    tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim, tdim - 1)
-    facets = msh.topology.connectivity(tdim, tdim - 1).array.reshape(-1, tdim + 1)[cells, local_facet]
-    return diameters(msh, tdim - 1, facets)
-
-
-def slot_tags(domain, groups):
-    """{i: meshtags of the exterior facets in ``groups`` whose local index in their cell is i, tagged 1 + k
-    for the k-th group}, for every i used on some rank (the local index is the same on every rank that
-    holds the cell, whoever owns the facet). The tags do not depend on i, so one compiled form serves
-    every slot."""
+def facet_layers(domain, groups):
+    """The owned exterior facets of the boundary ``groups`` (a sorted sequence of group ids), dealt into
+    layers that each hold at most one facet of any cell: a list of (meshtags of the layer's facets, tagged
+    1 + k for the k-th group; those facets; their cells). ``ds`` over one layer sees at most one facet per
+    cell, so per-facet integrals come out of a cellwise assembly, before the ghost cells' values are sent
+    to their owners. As many layers as the most such facets one cell has on some rank: usually one (a
+    tetrahedron with two faces on one boundary part sits at an edge of it), the same count on every rank,
+    since the forms over them are built collectively."""
     msh, tags = domain.mesh, domain.facet_tags
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim - 1, tdim)
-    msh.topology.create_connectivity(tdim, tdim - 1)
-    f2c, c2f = msh.topology.connectivity(tdim - 1, tdim), msh.topology.connectivity(tdim, tdim - 1)
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
     mask = np.isin(tags.values, groups)
-    facets, group_of = tags.indices[mask], tags.values[mask]
+    facets = tags.indices[mask]
+    tag = (1 + np.searchsorted(groups, tags.values[mask])).astype(np.int32)
     cells = f2c.array[f2c.offsets[facets]]  # an exterior facet has one cell
-    local_index = np.argmax(c2f.array.reshape(-1, tdim + 1)[cells] == facets[:, None], axis=1)
-    tag = (1 + np.searchsorted(groups, group_of)).astype(np.int32)
-    used = msh.comm.allreduce(int(sum(1 << int(i) for i in np.unique(local_index))), MPI.BOR)
-    return {i: dmesh.meshtags(msh, tdim - 1, facets[local_index == i], tag[local_index == i])
-            for i in range(tdim + 1) if used >> i & 1}
+    order = np.argsort(cells, kind="stable")
+    layer = np.empty(len(facets), dtype=np.int64)  # the facet's place among its cell's facets
+    layer[order] = np.arange(len(facets)) - np.searchsorted(cells[order], cells[order])
+    count = msh.comm.allreduce(int(layer.max()) + 1 if len(layer) else 0, MPI.MAX)
+    return [(dmesh.meshtags(msh, tdim - 1, facets[layer == i], tag[layer == i]), facets[layer == i],
+             cells[layer == i]) for i in range(count)]
 
 
 def owned_values_with_ghosts(Q, owned_values, name="o"):
