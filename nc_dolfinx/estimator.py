@@ -194,12 +194,10 @@ def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kink
     symmetry = tuple(fields.symmetry_axes)
     if symmetry:
         form += ufl.inner(sigma_t, sigma_t) * wv[eta_2] * fields.ds(symmetry)
-    one_point = {"quadrature_degree": 0}
-    for group in fields.ids["neumann"]:
-        g = fields.g.get(group, ufl.zero(gdim))
-        if _constant(g):  # σν − g is constant on the facet: one point
-            residual = s * n - g
-            form += ufl.inner(residual, residual) * wv[eta_2] * fields.ds(group, metadata=one_point)
+    one_point, varying = {"quadrature_degree": 0}, varying_traction_groups(fields)
+    for group in (group for group in fields.ids["neumann"] if group not in varying):
+        residual = s * n - fields.g.get(group, ufl.zero(gdim))  # constant on the facet: one point
+        form += ufl.inner(residual, residual) * wv[eta_2] * fields.ds(group, metadata=one_point)
     jump = s("+") * n("+") + s("-") * n("-")
     dS = ufl.dS(metadata={"quadrature_degree": 0})  # P1: the jump is constant on a facet; see compile_form
     form += ufl.inner(jump, jump) * (wv("+")[eta_2] + wv("-")[eta_2]) * dS
@@ -207,13 +205,18 @@ def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kink
     return values[:, area], values[:, :gdim], values[:, gdim], values[:, eta_2:eta_4 + 1]
 
 
+def varying_traction_groups(fields):
+    """The Neumann groups (sorted ids) whose traction g varies in space: those need per-facet means g_F;
+    where g is constant, g_F = g (a group without g is traction-free)."""
+    return sorted(group for group in fields.ids["neumann"] if group in fields.g and not _constant(fields.g[group]))
+
+
 def _varying_neumann_terms(u, fields, Qv, degree):
     """Per owned cell, over its Neumann facets where g varies: Σ_F |F| |σν − g_F|² (η_2K²'s part without
     h_K) and Σ_F h_F ‖g − g_F‖²_F (ζ_K²'s part), one assembly per layer of :func:`facet_layers`."""
     msh = fields.domain.mesh
     gdim, tdim = msh.geometry.dim, msh.topology.dim
-    varying = sorted(group for group in fields.ids["neumann"]
-                     if group in fields.g and not _constant(fields.g[group]))  # absent: g = 0
+    varying = varying_traction_groups(fields)
     per_cell = dolfinx.la.vector(msh.topology.index_map(tdim), bs=2)  # η_2 and ζ parts, ghosts included
     terms = per_cell.array.reshape(-1, 2)
     if varying:

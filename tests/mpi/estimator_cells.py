@@ -2,7 +2,8 @@
 rank 0 and printed as one line ``RESULT {json}`` (tests/test_estimator_3d.py compares 1, 2, 3 ranks).
 
 The box has a symmetry plane (x = 0), Dirichlet (top), two Neumann groups with non-polynomial tractions,
-contact faces on which u_hn − g_0 changes sign, m_n = 1.5 and c_n(x)."""
+contact faces on which u_hn − g_0 changes sign, m_n = 1.5 and c_n(x). Also reported: how many layers the
+faces with varying traction take (``facet_layers``: a cell at the edge x = 1, y = 0 has two)."""
 import json
 
 import numpy as np
@@ -11,6 +12,8 @@ from mpi4py import MPI
 from dolfinx import fem, mesh as dmesh
 from dolfinx.cpp.mesh import entities_to_geometry
 import nc_dolfinx as nc
+from nc_dolfinx.estimator import varying_traction_groups
+from nc_dolfinx.estimator_geometry import facet_layers
 
 PROBLEM = {
     "mesh": {"box": [[0, 0, 0], [1, 1, 0.5]], "cells": [4, 4, 2], "symmetry": ["left"], "dirichlet": ["top"],
@@ -45,6 +48,7 @@ nodes = entities_to_geometry(msh._mesh, 2, contact, False)
 X = msh.geometry.x[nodes.ravel()]
 phi = (-displacement(X.T)[2] - (0.005 + 0.01 * X[:, 0])).reshape(-1, 3)
 kinked = comm.allreduce(int(np.count_nonzero((phi.max(axis=1) > 0) & (phi.min(axis=1) < 0))), MPI.SUM)
+layers = len(facet_layers(domain, varying_traction_groups(fields)))
 mid = dmesh.compute_midpoints(msh, 3, np.arange(n, dtype=np.int32))
 names = ["eta", "eta_1", "eta_2", "eta_3", "eta_4", "zeta"]
 rows = np.column_stack([mid] + [est.fields[k].x.array[:n] for k in names]).tolist()
@@ -52,4 +56,4 @@ rows = comm.gather(rows, root=0)
 cells = msh.topology.index_map(3).size_global
 if comm.rank == 0:
     print("RESULT " + json.dumps({"rows": sum(rows, []), "totals": est.totals, "cells": cells,
-                                  "kinked_faces": kinked}))
+                                  "kinked_faces": kinked, "neumann_layers": layers}))
