@@ -208,7 +208,8 @@ def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kink
 def varying_traction_groups(fields):
     """The Neumann groups (sorted ids) whose traction g varies in space: those need per-facet means g_F;
     where g is constant, g_F = g (a group without g is traction-free)."""
-    return sorted(group for group in fields.ids["neumann"] if group in fields.g and not _constant(fields.g[group]))
+    return sorted(group for group in fields.ids["neumann"]
+                  if group in fields.g and not _constant(fields.g[group]))
 
 
 def _varying_neumann_terms(u, fields, Qv, degree):
