@@ -140,11 +140,12 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=max(gdim + 5, 2 * gdim + 2))
     h_K = cell_diameters(msh)
 
+    varying = varying_traction_groups(fields)  # these Neumann groups need per-facet means g_F
     area, f_int, f_sq, facet_terms = _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree,
-                                                           split_kinks)
+                                                           split_kinks, varying)
     f_mean_sq = np.sum(f_int ** 2, axis=1) / area  # ‖f_K‖_K² = |∫_K f|² / |K|
     eta_1_sq = h_K ** 2 * f_mean_sq
-    eta_2_varying_g, osc_g = _varying_neumann_terms(u, fields, Qv, cell_degree)
+    eta_2_varying_g, osc_g = _varying_neumann_terms(u, fields, Qv, cell_degree, varying)
     eta_2_sq, eta_3_sq, eta_4_sq = (h_K * terms for terms in (facet_terms[:, 0] + eta_2_varying_g,
                                                               facet_terms[:, 1], facet_terms[:, 2]))
 
@@ -172,11 +173,11 @@ def _constant(expression):
                 or ufl.algorithms.extract_coefficients(expression))
 
 
-def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kinks):
+def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kinks, varying):
     """One assembly, per owned cell: |K|, ∫_K f, ∫_K |f|², and its facet terms without the factor h_K
     (columns of the last array): η_2K²/h_K but for the Neumann facets where g varies — over its interior
     facets Σ ‖[σ(u_h) ν_F]‖²_F (the full jump), over its symmetry facets Σ ‖σ_t‖²_F, over its Neumann
-    facets with constant g Σ ‖σν − g‖²_F —, η_3K²/h_K = Σ ‖σ_t‖²_F and η_4K²/h_K =
+    facets with constant g (groups not in ``varying``) Σ ‖σν − g‖²_F —, η_3K²/h_K = Σ ‖σ_t‖²_F and η_4K²/h_K =
     Σ ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F over its contact facets."""
     gdim = fields.domain.mesh.geometry.dim
     wv = ufl.TestFunction(Qv)
@@ -194,7 +195,7 @@ def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kink
     symmetry = tuple(fields.symmetry_axes)
     if symmetry:
         form += ufl.inner(sigma_t, sigma_t) * wv[eta_2] * fields.ds(symmetry)
-    one_point, varying = {"quadrature_degree": 0}, varying_traction_groups(fields)
+    one_point = {"quadrature_degree": 0}
     for group in (group for group in fields.ids["neumann"] if group not in varying):
         residual = s * n - fields.g.get(group, ufl.zero(gdim))  # constant on the facet: one point
         form += ufl.inner(residual, residual) * wv[eta_2] * fields.ds(group, metadata=one_point)
@@ -212,12 +213,12 @@ def varying_traction_groups(fields):
                   if group in fields.g and not _constant(fields.g[group]))
 
 
-def _varying_neumann_terms(u, fields, Qv, degree):
+def _varying_neumann_terms(u, fields, Qv, degree, varying):
     """Per owned cell, over its Neumann facets where g varies: Σ_F |F| |σν − g_F|² (η_2K²'s part without
-    h_K) and Σ_F h_F ‖g − g_F‖²_F (ζ_K²'s part), one assembly per layer of :func:`facet_layers`."""
+    h_K) and Σ_F h_F ‖g − g_F‖²_F (ζ_K²'s part), one assembly per layer of :func:`facet_layers`; ``varying``:
+    the groups where g varies (:func:`varying_traction_groups`)."""
     msh = fields.domain.mesh
     gdim, tdim = msh.geometry.dim, msh.topology.dim
-    varying = varying_traction_groups(fields)
     per_cell = dolfinx.la.vector(msh.topology.index_map(tdim), bs=2)  # η_2 and ζ parts, ghosts included
     terms = per_cell.array.reshape(-1, 2)
     if varying:
