@@ -210,16 +210,18 @@ def build_refinement_connectivity(msh):
         msh.topology.create_connectivity(2, 1)
 
 
-def dolfinx_refine_seconds(domain, cells):
-    """DOLFINx's own refinement of the same marked cells, as ``nc.refine`` calls it (the edges of the
-    marked cells, ``redistribute=False``), and nothing else: its wall time (slowest rank)."""
+def dolfinx_refine_seconds(domain, cells, redistribute=False):
+    """DOLFINx's own refinement of the same marked cells (the edges of the marked cells), and nothing else:
+    its wall time (slowest rank). ``redistribute=False`` as ``nc.refine`` calls it; ``True`` is DOLFINx's
+    default, which partitions the child anew (on several ranks its ghost layer is then right, while
+    ``False`` may ghost a cell twice, which ``nc.refine`` repairs by re-creating the mesh)."""
     import numpy as np
     from dolfinx import mesh as dmesh
     msh, tdim = domain.mesh, domain.tdim
     start = barrier_time(msh.comm)
     msh.topology.create_entities(1)
     edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), tdim, 1)
-    dmesh.refine(msh, edges, redistribute=False)
+    dmesh.refine(msh, edges, redistribute=redistribute)
     return barrier_time(msh.comm) - start
 
 

@@ -21,12 +21,14 @@ component as Dirichlet data on it); it is bounded like the σ_t term on Γ_C, an
 Equivalently, mirroring the body across the plane makes F interior, with the jump [σν] = 2σ_t (tangential)
 and 0 (normal): the same term up to the factor 4.
 
-Every quantity is assembled against DG0 test functions over cells, interior facets, Neumann facets and
-contact/symmetry facets (or computed from the vertex coordinates: h_K, h_F), so it is parallel with
-ghost cells on facets only. The integrals are grouped into few assemblies (one for the cells, the interior
-facets, Γ_C, the symmetry planes and the Neumann facets where g is constant; one per layer below where g
-varies): each has a fixed cost, the interior facets' loop the largest. Every facet term of η_K² carries the
-factor h_K of its cell, applied after assembly. The interior facets' jumps, and σν − g on a Neumann facet
+Every quantity is assembled against DG0 test functions (:func:`~nc_dolfinx.domain.cell_space`: cell i's
+values at entries i·dim …) over cells, interior facets, Neumann facets and contact/symmetry facets (or
+computed from the vertex coordinates: h_F, and h_K when f = 0), so it is parallel with ghost cells on
+facets only. The integrals are grouped into few assemblies, each with a fixed cost: one over the cells
+(h_K = ∫_K h / |K|, and f's terms; none when f = 0), one over the facets (the interior facets, the
+largest loop, Γ_C, the symmetry planes and the Neumann facets where g is constant), one per layer below
+where g varies. The cells' assembly is separate so that u is not packed for it. Every facet term of η_K²
+carries the factor h_K of its cell, applied after assembly. The interior facets' jumps, and σν − g on a Neumann facet
 with constant g, are constant on each facet (P1, cellwise constant material) and use a one-point rule,
 which lets the interior facets' assembly skip the facet permutations (:func:`compile_form`). Constant data
 have no oscillation: a constant f skips the patch sum, a constant g its facets' part of ζ (both would
@@ -55,6 +57,7 @@ import dolfinx
 from dolfinx import fem
 
 from . import forms, physics
+from .domain import cell_space
 from .estimator_geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
 from .estimator_kink import law_residual_squared
 
@@ -92,10 +95,11 @@ def assemble_cellwise(form, space):
     indicators of Definition 5 are computed (a cell's value includes what its facets' integrals give it;
     ghost contributions are added to the owners). Interior-facet integrals with a one-point rule
     (``quadrature_degree`` 0) skip the facet permutations (:func:`compile_form`)."""
-    vec = fem.assemble_vector(compile_form(form))  # a DOLFINx vector: no PETSc object, no copy of its values
+    bs = space.dofmap.index_map_bs
+    vec = dolfinx.la.vector(space.dofmap.index_map, bs)  # zeros; no PETSc object, no copy of its values
+    fem.assemble_vector(vec.array, compile_form(form))
     vec.scatter_reverse(dolfinx.la.ScatterMode.add)
-    n_owned = space.dofmap.index_map.size_local * space.dofmap.index_map_bs
-    return vec.array[:n_owned].reshape(-1, space.dofmap.index_map_bs)  # (a view keeps vec alive)
+    return vec.array[:space.dofmap.index_map.size_local * bs].reshape(-1, bs)  # (a view keeps vec alive)
 
 
 def compile_form(form):
@@ -133,33 +137,30 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
         split_kinks = msh.topology.dim > 2  # faces; edges keep their verified unsplit rule
     if contact_degree is None:
         contact_degree = CONTACT_DEGREE_SPLIT if split_kinks else CONTACT_DEGREE
-    gdim = msh.geometry.dim
-    Q = fields.domain.region.function_space  # the mesh's DG0 space (building one costs a dofmap)
-    # One vector DG0 space for the assemblies of several quantities at once (the cell and facet terms
-    # need gdim + 5 components, a layer of Neumann facets 2 gdim + 2).
-    Qv = fem.VectorFunctionSpace(msh, ("DG", 0), dim=max(gdim + 5, 2 * gdim + 2))
-    h_K = cell_diameters(msh)
+    Q = fields.domain.region.function_space  # the scalar DG0 space (:func:`cell_space`) of η_K, ζ_K
 
+    h_K, f_mean_sq, f_sq = _cell_terms(fields, cell_degree)
     varying = varying_traction_groups(fields)  # these Neumann groups need per-facet means g_F
-    area, f_int, f_sq, facet_terms = _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree,
-                                                           split_kinks, varying)
-    f_mean_sq = np.sum(f_int ** 2, axis=1) / area  # ‖f_K‖_K² = |∫_K f|² / |K|
-    eta_1_sq = h_K ** 2 * f_mean_sq
-    eta_2_varying_g, osc_g = _varying_neumann_terms(u, fields, Qv, cell_degree, varying)
-    eta_2_sq, eta_3_sq, eta_4_sq = (h_K * terms for terms in (facet_terms[:, 0] + eta_2_varying_g,
-                                                              facet_terms[:, 1], facet_terms[:, 2]))
-
+    facet_terms = _facet_terms(u, fields, contact_degree, split_kinks, varying)
+    eta_2_varying_g, osc_g = _varying_neumann_terms(u, fields, cell_degree, varying)
+    # Every square below is a sum of nonnegative terms; in place, since each array is 8 bytes a cell.
+    eta_1_sq = np.multiply(h_K, h_K)
+    eta_1_sq *= f_mean_sq
+    eta_2_sq = np.add(facet_terms[:, 0], eta_2_varying_g)
+    eta_2_sq *= h_K
+    eta_3_sq, eta_4_sq = h_K * facet_terms[:, 1], h_K * facet_terms[:, 2]
     zeta_sq = osc_g
-    if not _constant(fields.f):  # a constant f equals its means f_K: no oscillation (nor patch sum)
+    if f_sq is not None:  # a constant f equals its means f_K: no oscillation (nor patch sum)
         zeta_sq = zeta_sq + h_K ** 2 * patch_sum(np.maximum(f_sq - f_mean_sq, 0.0), Q)
-    squares = {"eta_1": eta_1_sq, "eta_2": eta_2_sq, "eta_3": eta_3_sq, "eta_4": eta_4_sq,
+    eta_sq = eta_1_sq + eta_2_sq
+    eta_sq += eta_3_sq
+    eta_sq += eta_4_sq
+    squares = {"eta_1": eta_1_sq, "eta_2": eta_2_sq, "eta_3": eta_3_sq, "eta_4": eta_4_sq, "eta": eta_sq,
                "zeta": zeta_sq}
-    squares["eta"] = eta_1_sq + eta_2_sq + eta_3_sq + eta_4_sq
-    out, totals = {}, {}
-    for name in NAMES:
-        out[name] = owned_values_with_ghosts(Q, np.sqrt(np.maximum(squares[name], 0.0)), name)
-        totals[name] = float(np.sqrt(comm.allreduce(float(np.sum(squares[name])), MPI.SUM)))
-    return Estimate(out, totals, time.perf_counter() - start, squares["eta"])
+    fields_out = {name: owned_values_with_ghosts(Q, squares[name], name, np.sqrt) for name in NAMES}
+    sums = comm.allreduce(np.array([np.sum(squares[name]) for name in NAMES]), MPI.SUM)
+    totals = {name: float(np.sqrt(total)) for name, total in zip(NAMES, sums)}
+    return Estimate(fields_out, totals, time.perf_counter() - start, eta_sq)
 
 
 def _against(vector, wv, first):
@@ -173,25 +174,48 @@ def _constant(expression):
                 or ufl.algorithms.extract_coefficients(expression))
 
 
-def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kinks, varying):
-    """One assembly, per owned cell: |K|, ∫_K f, ∫_K |f|², and its facet terms without the factor h_K
-    (columns of the last array): η_2K²/h_K but for the Neumann facets where g varies — over its interior
-    facets Σ ‖[σ(u_h) ν_F]‖²_F (the full jump), over its symmetry facets Σ ‖σ_t‖²_F, over its Neumann
-    facets with constant g (groups not in ``varying``) Σ ‖σν − g‖²_F —, η_3K²/h_K = Σ ‖σ_t‖²_F and η_4K²/h_K =
-    Σ ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F over its contact facets."""
-    gdim = fields.domain.mesh.geometry.dim
+def _cell_terms(fields, degree):
+    """Per owned cell: h_K, ‖f_K‖²_K = |∫_K f|² / |K| (η_1K²/h_K²) and ‖f‖²_K (None for a constant f: no
+    oscillation). One assembly over the cells, which also gives h_K = ∫_K h / |K| (of |K|, ∫_K f and
+    ∫_K |f|², or for a constant f |K| alone: ‖f_K‖²_K = |f|² |K|); for f = 0 none, h_K from the vertices."""
+    f, msh = fields.f, fields.domain.mesh
+    gdim, h = msh.geometry.dim, ufl.CellDiameter(msh)
+    if _constant(f):
+        f_squared = float(np.sum(_value(f) ** 2))
+        if f_squared == 0.0:
+            return cell_diameters(msh), np.zeros(msh.topology.index_map(msh.topology.dim).size_local), None
+        Qv = cell_space(msh, 2)
+        w = ufl.TestFunction(Qv)
+        values = assemble_cellwise((w[0] + h * w[1]) * ufl.dx(metadata={"quadrature_degree": 0}), Qv)
+        return values[:, 1] / values[:, 0], f_squared * values[:, 0], None
+    Qv = cell_space(msh, gdim + 3)
+    w = ufl.TestFunction(Qv)
+    form = (_against(f, w, 0) + ufl.inner(f, f) * w[gdim] + w[gdim + 1] + h * w[gdim + 2]) \
+        * ufl.dx(metadata={"quadrature_degree": degree})
+    values = assemble_cellwise(form, Qv)
+    area = values[:, gdim + 1]
+    return values[:, gdim + 2] / area, sum(values[:, i] ** 2 for i in range(gdim)) / area, values[:, gdim]
+
+
+def _facet_terms(u, fields, contact_degree, split_kinks, varying):
+    """One assembly, per owned cell, of its facet terms without the factor h_K (columns): η_2K²/h_K but for
+    the Neumann facets where g varies — over its interior facets Σ ‖[σ(u_h) ν_F]‖²_F (the full jump), over
+    its symmetry facets Σ ‖σ_t‖²_F, over its Neumann facets with constant g (groups not in ``varying``)
+    Σ ‖σν − g‖²_F —, η_3K²/h_K = Σ ‖σ_t‖²_F and η_4K²/h_K = Σ ‖c_n (u_hn − g_0)_+^{m_n} + σ_n‖²_F over its
+    contact facets."""
+    msh = fields.domain.mesh
+    gdim = msh.geometry.dim
+    Qv = cell_space(msh, 3)
     wv = ufl.TestFunction(Qv)
-    n, s, f = ufl.FacetNormal(fields.domain.mesh), fields.sigma(u), fields.f
+    n, s = ufl.FacetNormal(msh), fields.sigma(u)
     sigma_t = physics.tangential_stress(s, n)
     if split_kinks:
         law_squared = law_residual_squared(u, fields, n)
     else:
         law_squared = (forms.contact_pressure(u, fields, n) + physics.normal_stress(s, n)) ** 2
-    area, eta_2, eta_3, eta_4 = gdim + 1, gdim + 2, gdim + 3, gdim + 4  # components of wv
-    dx = ufl.dx(metadata={"quadrature_degree": 0 if _constant(f) else cell_degree})  # constant f: exact
+    eta_2, eta_3, eta_4 = 0, 1, 2  # components of wv
     dC = forms.contact_measure(fields, contact_degree)
-    form = (_against(f, wv, 0) + ufl.inner(f, f) * wv[gdim] + wv[area]) * dx \
-        + (ufl.inner(sigma_t, sigma_t) * wv[eta_3] + law_squared * wv[eta_4]) * dC
+    form = (ufl.inner(sigma_t, sigma_t) * wv[eta_3] + law_squared * wv[eta_4]) * dC
     symmetry = tuple(fields.symmetry_axes)
     if symmetry:
         form += ufl.inner(sigma_t, sigma_t) * wv[eta_2] * fields.ds(symmetry)
@@ -202,8 +226,15 @@ def _cell_and_facet_terms(u, fields, Qv, contact_degree, cell_degree, split_kink
     jump = s("+") * n("+") + s("-") * n("-")
     dS = ufl.dS(metadata={"quadrature_degree": 0})  # P1: the jump is constant on a facet; see compile_form
     form += ufl.inner(jump, jump) * (wv("+")[eta_2] + wv("-")[eta_2]) * dS
-    values = assemble_cellwise(form, Qv)
-    return values[:, area], values[:, :gdim], values[:, gdim], values[:, eta_2:eta_4 + 1]
+    return assemble_cellwise(form, Qv)
+
+
+def _value(expression):
+    """The value (an array of its shape) of a UFL expression that is the same everywhere (:func:`_constant`:
+    numbers and ``fem.Constant``s)."""
+    constants = {c: c.value for c in ufl.algorithms.extract_type(expression, ufl.Constant)}
+    origin = (0.0,) * expression.ufl_domain().geometric_dimension() if expression.ufl_domain() else ()
+    return np.array([float(expression[i](origin, constants)) for i in np.ndindex(expression.ufl_shape)])
 
 
 def varying_traction_groups(fields):
@@ -213,29 +244,33 @@ def varying_traction_groups(fields):
                   if group in fields.g and not _constant(fields.g[group]))
 
 
-def _varying_neumann_terms(u, fields, Qv, degree, varying):
+def _varying_neumann_terms(u, fields, degree, varying):
     """Per owned cell, over its Neumann facets where g varies: Σ_F |F| |σν − g_F|² (η_2K²'s part without
     h_K) and Σ_F h_F ‖g − g_F‖²_F (ζ_K²'s part), one assembly per layer of :func:`facet_layers`; ``varying``:
     the groups where g varies (:func:`varying_traction_groups`)."""
     msh = fields.domain.mesh
     gdim, tdim = msh.geometry.dim, msh.topology.dim
+    n_owned = msh.topology.index_map(tdim).size_local
+    if not varying:  # the same on every rank
+        return np.zeros(n_owned), np.zeros(n_owned)
     per_cell = dolfinx.la.vector(msh.topology.index_map(tdim), bs=2)  # η_2 and ζ parts, ghosts included
     terms = per_cell.array.reshape(-1, 2)
-    if varying:
-        wv, s, n = ufl.TestFunction(Qv), fields.sigma(u), ufl.FacetNormal(msh)
-        for tags, facets, cells in facet_layers(fields.domain, varying):
-            ds = ufl.Measure("ds", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": degree})
-            form = sum((_against(s * n - fields.g[group], wv, 0) + _against(fields.g[group], wv, gdim)
-                        + ufl.inner(fields.g[group], fields.g[group]) * wv[2 * gdim] + wv[2 * gdim + 1])
-                       * ds(1 + k) for k, group in enumerate(varying))
-            # Not sent to the owners yet: each cell's values are those of its one facet in the layer.
-            vec = fem.assemble_vector(compile_form(form))
-            values = vec.array.reshape(-1, Qv.dofmap.index_map_bs)[cells]
-            F = values[:, 2 * gdim + 1]
-            g_mean_sq = np.sum(values[:, gdim:2 * gdim] ** 2, axis=1) / F  # |∫_F g|² / |F|
-            terms[cells, 0] += np.sum(values[:, :gdim] ** 2, axis=1) / F  # a cell is once in a layer
-            h_F = diameters(msh, tdim - 1, facets)
-            terms[cells, 1] += h_F * np.maximum(values[:, 2 * gdim] - g_mean_sq, 0.0)
+    Qv = cell_space(msh, 2 * gdim + 2)
+    wv, s, n = ufl.TestFunction(Qv), fields.sigma(u), ufl.FacetNormal(msh)
+    for tags, facets, cells in facet_layers(fields.domain, varying):
+        ds = ufl.Measure("ds", domain=msh, subdomain_data=tags, metadata={"quadrature_degree": degree})
+        form = sum((_against(s * n - fields.g[group], wv, 0) + _against(fields.g[group], wv, gdim)
+                    + ufl.inner(fields.g[group], fields.g[group]) * wv[2 * gdim] + wv[2 * gdim + 1])
+                   * ds(1 + k) for k, group in enumerate(varying))
+        # Not sent to the owners yet: each cell's values are those of its one facet in the layer. (np.zeros
+        # leaves the pages of the cells without a facet here untouched: no pass over the whole mesh.)
+        values = np.zeros((Qv.dofmap.index_map.size_local + Qv.dofmap.index_map.num_ghosts, 2 * gdim + 2))
+        fem.assemble_vector(values.reshape(-1), compile_form(form))
+        values = values[cells]
+        F = values[:, 2 * gdim + 1]
+        g_mean_sq = np.sum(values[:, gdim:2 * gdim] ** 2, axis=1) / F  # |∫_F g|² / |F|
+        terms[cells, 0] += np.sum(values[:, :gdim] ** 2, axis=1) / F  # a cell is once in a layer
+        h_F = diameters(msh, tdim - 1, facets)
+        terms[cells, 1] += h_F * np.maximum(values[:, 2 * gdim] - g_mean_sq, 0.0)
     per_cell.scatter_reverse(dolfinx.la.ScatterMode.add)
-    n_owned = msh.topology.index_map(tdim).size_local
     return terms[:n_owned, 0], terms[:n_owned, 1]

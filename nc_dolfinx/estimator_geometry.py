@@ -54,10 +54,15 @@ def facet_layers(domain, groups):
              cells[layer == i]) for i in range(count)]
 
 
-def owned_values_with_ghosts(Q, owned_values, name="o"):
-    """A DG0 function on ``Q`` holding ``owned_values`` on the owned cells and the owners' on the ghosts."""
+def owned_values_with_ghosts(Q, owned_values, name="o", ufunc=None):
+    """A DG0 function on ``Q`` holding ``owned_values`` (or ``ufunc`` of them, e.g. ``np.sqrt``, written in
+    place) on the owned cells and the owners' on the ghosts."""
     fn = fem.Function(Q, name=name)
-    fn.x.array[:len(owned_values)] = owned_values
+    owned = fn.x.array[:len(owned_values)]
+    if ufunc is None:
+        owned[:] = owned_values
+    else:
+        ufunc(owned_values, out=owned)
     fn.x.scatter_forward()
     return fn
 

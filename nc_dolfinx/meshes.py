@@ -14,7 +14,7 @@ import dolfinx
 from dolfinx import fem, mesh as dmesh
 
 from .domain import (UNTAGGED, Domain, distance_to_simplices, match_simplices,  # noqa: F401 (re-exported)
-                     owned_exterior_facets, region_function, tag_exterior_facets)
+                     cell_space, owned_exterior_facets, region_function, tag_exterior_facets)
 from .errors import InputError
 
 RECTANGLE_SIDES = {"left": 1, "right": 2, "bottom": 3, "top": 4}
@@ -138,7 +138,7 @@ def _groups(comm, tags, names, what):
 
 def _owned_cell_values(msh, cell_tags):
     """Tag of every owned cell (NaN where untagged), whichever local copy of the cell carries it."""
-    V = fem.FunctionSpace(msh, ("DG", 0))
+    V = cell_space(msh)  # dof i is cell i
     total, count = fem.Function(V), fem.Function(V)
     total.x.array[cell_tags.indices] = cell_tags.values
     count.x.array[cell_tags.indices] = 1.0

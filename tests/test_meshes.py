@@ -79,6 +79,26 @@ def test_box_faces_cover_the_sides(gdim):
         assert measure.sum() == pytest.approx(np.prod(np.delete(high - low, axis)), rel=1e-14)
 
 
+@pytest.mark.parametrize("tdim, dim", [(2, 1), (2, 5), (3, 1), (3, 8)])
+def test_cell_space_numbers_dofs_as_cells(tdim, dim):
+    """cell_space: component j of cell i's value is entry dim·i + j of a vector (what the estimator, the
+    marking and the regions read as cell i's), here each cell's midpoint coordinates, assembled."""
+    import ufl
+    from dolfinx import mesh as dmesh
+    from nc_dolfinx.domain import cell_space
+    from nc_dolfinx.estimator import assemble_cellwise
+    msh = dmesh.create_unit_square(COMM, 3, 2) if tdim == 2 else dmesh.create_unit_cube(COMM, 2, 1, 2)
+    V = cell_space(msh, dim)
+    w, x = ufl.TestFunction(V), ufl.SpatialCoordinate(msh)
+    components = [w] if dim == 1 else [w[j] for j in range(dim)]
+    values = assemble_cellwise(sum(x[j % tdim] * c for j, c in enumerate(components)) / ufl.CellVolume(msh)
+                               * ufl.dx, V)
+    n = msh.topology.index_map(tdim).size_local
+    midpoints = dmesh.compute_midpoints(msh, tdim, np.arange(n, dtype=np.int32))
+    assert values.shape == (n, dim)
+    assert np.allclose(values, midpoints[:, np.arange(dim) % tdim], atol=1e-14)
+
+
 def test_box_domain():
     domain = meshes.box(COMM, [[0, 0, 0], [2, 1, 3]], [2, 1, 3])
     tags = domain.facet_tags
