@@ -28,11 +28,11 @@ facets only. The integrals are grouped into few assemblies, each with a fixed co
 (h_K = ∫_K h / |K|, and f's terms; none when f = 0), one over the facets (the interior facets, the
 largest loop, Γ_C, the symmetry planes and the Neumann facets where g is constant), one per layer below
 where g varies. The cells' assembly is separate so that u is not packed for it. Every facet term of η_K²
-carries the factor h_K of its cell, applied after assembly. The interior facets' jumps, and σν − g on a Neumann facet
-with constant g, are constant on each facet (P1, cellwise constant material) and use a one-point rule,
-which lets the interior facets' assembly skip the facet permutations (:func:`compile_form`). Constant data
-have no oscillation: a constant f skips the patch sum, a constant g its facets' part of ζ (both would
-otherwise add round-off).
+carries the factor h_K of its cell, applied after assembly. The interior facets' jumps, and σν − g on a
+Neumann facet with constant g, are constant on each facet (P1, cellwise constant material) and use a
+one-point rule, which lets the interior facets' assembly skip the facet permutations (:func:`compile_form`).
+Constant data have no oscillation: a constant f skips the patch sum, a constant g its facets' part of ζ
+(both would otherwise add round-off).
 - g_F where g varies: the means are per *facet*, and a cell may have up to tdim + 1 Neumann facets. The
   facets are dealt into layers with at most one facet per cell (:func:`facet_layers`; one layer unless a
   cell has two facets there), so ``ds`` over one layer gives the per-facet integrals ∫_F g, ∫_F (σν − g),
@@ -151,7 +151,8 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     eta_3_sq, eta_4_sq = h_K * facet_terms[:, 1], h_K * facet_terms[:, 2]
     zeta_sq = osc_g
     if f_sq is not None:  # a constant f equals its means f_K: no oscillation (nor patch sum)
-        zeta_sq = zeta_sq + h_K ** 2 * patch_sum(np.maximum(f_sq - f_mean_sq, 0.0), Q)
+        # (an alternating sum: kept from going below 0 by round-off)
+        zeta_sq = zeta_sq + h_K ** 2 * np.maximum(patch_sum(np.maximum(f_sq - f_mean_sq, 0.0), Q), 0.0)
     eta_sq = eta_1_sq + eta_2_sq
     eta_sq += eta_3_sq
     eta_sq += eta_4_sq
