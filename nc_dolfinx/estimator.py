@@ -177,25 +177,24 @@ def _constant(expression):
 
 def _cell_terms(fields, degree):
     """Per owned cell: h_K, ‖f_K‖²_K = |∫_K f|² / |K| (η_1K²/h_K²) and ‖f‖²_K (None for a constant f: no
-    oscillation). One assembly over the cells, which also gives h_K = ∫_K h / |K| (of |K|, ∫_K f and
-    ∫_K |f|², or for a constant f |K| alone: ‖f_K‖²_K = |f|² |K|); for f = 0 none, h_K from the vertices."""
+    oscillation). One assembly over the cells of |K| and ∫_K h (h_K = ∫_K h / |K|), and where f varies of
+    ∫_K f and ∫_K |f|²; a constant f needs none of its own (‖f_K‖²_K = |f|² |K|), and f = 0 no assembly at
+    all (η_1 = 0; h_K from the vertices)."""
     f, msh = fields.f, fields.domain.mesh
-    gdim, h = msh.geometry.dim, ufl.CellDiameter(msh)
-    if _constant(f):
-        f_squared = float(np.sum(_value(f) ** 2))
-        if f_squared == 0.0:
-            return cell_diameters(msh), np.zeros(msh.topology.index_map(msh.topology.dim).size_local), None
-        Qv = cell_space(msh, 2)
-        w = ufl.TestFunction(Qv)
-        values = assemble_cellwise((w[0] + h * w[1]) * ufl.dx(metadata={"quadrature_degree": 0}), Qv)
-        return values[:, 1] / values[:, 0], f_squared * values[:, 0], None
-    Qv = cell_space(msh, gdim + 3)
+    gdim, constant = msh.geometry.dim, _constant(f)
+    f_squared = float(np.sum(_value(f) ** 2)) if constant else None
+    if f_squared == 0.0:
+        return cell_diameters(msh), np.zeros(msh.topology.index_map(msh.topology.dim).size_local), None
+    Qv = cell_space(msh, 2 if constant else gdim + 3)
     w = ufl.TestFunction(Qv)
-    form = (_against(f, w, 0) + ufl.inner(f, f) * w[gdim] + w[gdim + 1] + h * w[gdim + 2]) \
-        * ufl.dx(metadata={"quadrature_degree": degree})
-    values = assemble_cellwise(form, Qv)
-    area = values[:, gdim + 1]
-    return values[:, gdim + 2] / area, sum(values[:, i] ** 2 for i in range(gdim)) / area, values[:, gdim]
+    integrand = w[0] + ufl.CellDiameter(msh) * w[1]
+    if not constant:
+        integrand += _against(f, w, 2) + ufl.inner(f, f) * w[gdim + 2]
+    values = assemble_cellwise(integrand * ufl.dx(metadata={"quadrature_degree": 0 if constant else degree}), Qv)
+    area, h_K = values[:, 0], values[:, 1] / values[:, 0]
+    if constant:
+        return h_K, f_squared * area, None
+    return h_K, sum(values[:, 2 + i] ** 2 for i in range(gdim)) / area, values[:, gdim + 2]
 
 
 def _facet_terms(u, fields, contact_degree, split_kinks, varying):
