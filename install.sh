@@ -1,6 +1,8 @@
 #!/bin/sh
-# Installs what nc_dolfinx needs on Debian bookworm, as root, and nothing that is already there.
-# Used by the README quickstart, .ci/run and the Dockerfile alike. Idempotent.
+# Installs what nc_dolfinx needs on Debian trixie (DOLFINx 0.9), sid (0.11) or bookworm (0.5.2), as root,
+# and nothing that is already there. The same package names serve all three releases (checked in CI, which
+# runs this script in root file systems of trixie and sid: .ci/rootfs). Used by the README quickstart,
+# .ci/run and the Dockerfile alike. Idempotent.
 # libopenblas0-serial replaces the reference BLAS under MUMPS (LU/Cholesky about 2x faster, measured).
 # python3-venv and python3-setuptools: `pip install .` into a venv on top of these packages
 #   /usr/bin/python3 -m venv --system-site-packages VENV && VENV/bin/pip install --no-build-isolation .
@@ -13,6 +15,13 @@ python3-numpy python3-scipy python3-sympy python3-matplotlib python3-pytest open
 libopenblas0-serial python3-venv python3-setuptools"
 if [ "${1:-}" = "--paraview" ]; then
     PACKAGES="$PACKAGES paraview python3-paraview xvfb xauth"
+fi
+if [ -r /etc/os-release ]; then
+    . /etc/os-release
+    case "${VERSION_CODENAME:-}" in
+        bookworm|trixie|forky|sid|"") ;;
+        *) echo "install.sh: Debian ${VERSION_CODENAME} is untested: nc_dolfinx is tested on bookworm, trixie and sid" ;;
+    esac
 fi
 missing=""
 for p in $PACKAGES; do

@@ -38,6 +38,20 @@ def floor_amg_options(amg, dim):
     return {"gamg": FLOOR_OPTIONS, "ml": {**FLOOR_OPTIONS, "pc_type": "ml"}, "hypre": FLOOR_HYPRE[dim]}[amg]
 
 
+def pc_available(pc_type):
+    """Whether this PETSc has the preconditioner ``pc_type``. Trilinos ML ("ml") is in Debian bookworm's
+    PETSc 3.18, not in trixie's 3.22 nor sid's 3.25: there the ML columns stay empty."""
+    from petsc4py import PETSc
+    pc = PETSc.PC().create(PETSc.COMM_SELF)
+    try:
+        pc.setType(pc_type)
+        return True
+    except PETSc.Error:
+        return False
+    finally:
+        pc.destroy()
+
+
 # --- processes ------------------------------------------------------------------------------------
 
 def launch(cmd, nprocs, timeout, extra_env=None):
@@ -103,13 +117,14 @@ def timed_solve(problem, domain, comm, **kwargs):
 
 def rigid_body_modes(V):
     """The d translations and d(d−1)/2 rotations of the vector P1 space V, orthonormalised (as
-    demo_elasticity.py's build_nullspace, for any dimension)."""
-    import dolfinx
+    demo_elasticity.py's build_nullspace, for any dimension; Gram–Schmidt written out, as DOLFINx 0.5's
+    ``la.orthonormalize`` does it: later versions orthonormalise only their own ``la.Vector``)."""
     from petsc4py import PETSc
     index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
     x = V.tabulate_dof_coordinates()[:index_map.size_local, :bs]
     planes = [(i, j) for i in range(bs) for j in range(i + 1, bs)]
-    basis = [dolfinx.la.create_petsc_vector(index_map, bs) for _ in range(bs + len(planes))]
+    basis = [PETSc.Vec().createMPI((index_map.size_local * bs, PETSc.DETERMINE), bsize=bs, comm=V.mesh.comm)
+             for _ in range(bs + len(planes))]
     with_arrays = [b.array.reshape(-1, bs) for b in basis]
     for a in with_arrays:
         a[:] = 0.0
@@ -117,7 +132,10 @@ def rigid_body_modes(V):
         with_arrays[k][:, k] = 1.0
     for a, (i, j) in zip(with_arrays[bs:], planes):
         a[:, i], a[:, j] = -x[:, j], x[:, i]
-    dolfinx.la.orthonormalize(basis)
+    for i, vector in enumerate(basis):
+        for previous in basis[:i]:
+            vector.axpy(-vector.dot(previous), previous)
+        vector.normalize()
     return PETSc.NullSpace().create(vectors=basis, comm=V.mesh.comm)
 
 
@@ -128,12 +146,13 @@ class LinearFloor:
     def __init__(self, problem, domain):
         import ufl
         import nc_dolfinx as nc
+        from nc_dolfinx import dolfinx_versions as versions
         from dolfinx import fem
         from dolfinx.fem import petsc as fem_petsc
         from petsc4py import PETSc
         self.comm = domain.comm
         fields = nc.bind(problem, domain)
-        V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+        V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
         a = ufl.inner(fields.sigma(u), ufl.sym(ufl.grad(v))) * ufl.dx
         L = ufl.inner(fields.f, v) * ufl.dx
@@ -210,18 +229,26 @@ def build_refinement_connectivity(msh):
         msh.topology.create_connectivity(2, 1)
 
 
-def dolfinx_refine_seconds(domain, cells, redistribute=False):
+def dolfinx_refine_seconds(domain, cells, default=False):
     """DOLFINx's own refinement of the same marked cells (the edges of the marked cells), and nothing else:
-    its wall time (slowest rank). ``redistribute=False`` as ``nc.refine`` calls it; ``True`` is DOLFINx's
-    default, which partitions the child anew (on several ranks its ghost layer is then right, while
-    ``False`` may ghost a cell twice, which ``nc.refine`` repairs by re-creating the mesh)."""
-    import numpy as np
+    its wall time (slowest rank). By default as ``nc.refine`` calls it, children on their parent's rank:
+    on 0.9 and 0.11 ``versions.refine_keeping_ranks`` (on 0.9 with nc_dolfinx's partitioner, which builds
+    the ghost layer), on 0.5.2 ``refine(redistribute=False)`` alone (it may ghost a cell twice, which
+    ``nc.refine`` then repairs by re-creating the mesh: not timed here). ``default=True``: DOLFINx's plain
+    ``refine(msh, edges)`` (0.5.2 partitions the child anew, 0.9 too but builds no ghost cells; 0.11
+    keeps the children on their parent's rank and ghosts them, as ``nc.refine``)."""
     from dolfinx import mesh as dmesh
-    msh, tdim = domain.mesh, domain.tdim
+    from nc_dolfinx import dolfinx_versions as versions
+    msh = domain.mesh
     start = barrier_time(msh.comm)
     msh.topology.create_entities(1)
-    edges = dmesh.compute_incident_entities(msh, np.asarray(cells, dtype=np.int32), tdim, 1)
-    dmesh.refine(msh, edges, redistribute=redistribute)
+    edges = versions.incident_edges(msh, cells)
+    if default:
+        dmesh.refine(msh, edges)
+    elif versions.V05:
+        dmesh.refine(msh, edges, redistribute=False)
+    else:
+        versions.refine_keeping_ranks(msh, edges)
     return barrier_time(msh.comm) - start
 
 

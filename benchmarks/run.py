@@ -19,9 +19,10 @@ measures, on one mesh and in one process:
   function space, forms, K/L assembly, the solver's creation), nonlinear solve from u = 0 (the SNES time,
   ``Solution.stats.time``), estimator (``nc.estimate``), Dörfler marking (``nc.mark``, θ = 0.5), refinement
   of the marked cells (``nc.refine``) and, for comparison, DOLFINx's own ``dolfinx.mesh.refine`` of the same
-  marked cells, as ``nc.refine`` calls it (``redistribute=False``: "dolfinx") and by default ("dflt":
-  the child partitioned anew, which on several ranks gives the ghost layer that ``nc.refine`` otherwise
-  repairs); output (XDMF of the mesh and u);
+  marked cells, as ``nc.refine`` calls it (children kept on their parent's rank, DOLFINx 0.5.2's
+  ``redistribute=False``: "dolfinx") and by default ("dflt": on 0.5.2 the child partitioned anew, which on
+  several ranks gives the ghost layer that ``nc.refine`` otherwise repairs; see
+  ``common.dolfinx_refine_seconds`` for 0.9 and 0.11); output (XDMF of the mesh and u);
 - (a) one linear elasticity solve K u = L on the same mesh, written independently in plain DOLFINx
   (``common.LinearFloor``: CG + GAMG + rigid-body modes as in DOLFINx's demo_elasticity.py, rtol 1e-8), and
   the same to the nonlinear solve's accuracy (true residual 1e-10 ‖L‖);
@@ -50,7 +51,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from common import (LinearFloor, barrier_time, build_refinement_connectivity, current_rss_mb,  # noqa: E402
                     dofs, dolfinx_refine_seconds, format_table, launch, legacy_available, machine_load,
-                    max_rss_mb, pc_setup_seconds, rank_max, timed_solve)
+                    max_rss_mb, pc_available, pc_setup_seconds, rank_max, timed_solve)
 
 DEFAULT_SIZES = ["1e4", "1.3e5", "5e5", "2e6"]
 DEFAULT_PARALLEL_SIZES = ["1e4", "1.3e5", "5e5"]  # keeps the default run near 10 minutes on 2 cores
@@ -158,7 +159,7 @@ def floor_columns(problem, domain, prefix=""):
     try:
         t, its, residual = floor.solve()
         t_eq, its_eq, _ = floor.solve(1e-10, "unpreconditioned")
-        t_ml, its_ml, _ = floor.solve(amg="ml")
+        t_ml, its_ml = floor.solve(amg="ml")[:2] if pc_available("ml") else (None, None)
         t_hypre, its_hypre, _ = floor.solve(amg="hypre")
     finally:
         floor.destroy()
@@ -193,7 +194,7 @@ def adapt_step(solution, comm, warm):
     child = nc.refine(solution.domain, marked)
     t_refine = barrier_time(comm) - t
     t_dolfinx = dolfinx_refine_seconds(solution.domain, marked)
-    t_default = dolfinx_refine_seconds(solution.domain, marked, redistribute=True)
+    t_default = dolfinx_refine_seconds(solution.domain, marked, default=True)
     return child, {"estimate": t_estimate, "mark": t_mark, "edges": t_edges, "refine": t_refine,
                    "refine_dolfinx": t_dolfinx, "refine_dolfinx_default": t_default,
                    "marked": comm.allreduce(len(marked))}
@@ -213,14 +214,14 @@ def plain_dolfinx(problem, domain, solver_type):
     """The baseline a user would write: NonlinearProblem + NewtonSolver, full UFL residual, LU each step."""
     import ufl
     import nc_dolfinx as nc
+    from nc_dolfinx import dolfinx_versions as versions
     from petsc4py import PETSc
     from dolfinx import fem
-    from dolfinx.fem.petsc import NonlinearProblem
     from dolfinx.nls.petsc import NewtonSolver
     comm = domain.comm
     start = time.perf_counter()
     fields = nc.bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
     u, v = fem.Function(V), ufl.TestFunction(V)
     n = ufl.FacetNormal(domain.mesh)
     un = ufl.dot(u, n) - fields.gap
@@ -230,7 +231,7 @@ def plain_dolfinx(problem, domain, solver_type):
          - ufl.inner(fields.f, v) * ufl.dx)
     for group_id, g in fields.g.items():
         F -= ufl.inner(g, v) * fields.ds(group_id)
-    nlp = NonlinearProblem(F, u, bcs=fields.boundary_conditions(V))
+    nlp = versions.newton_problem(F, u, fields.boundary_conditions(V))
     newton = NewtonSolver(comm, nlp)
     newton.convergence_criterion = "residual"
     newton.rtol, newton.atol, newton.max_it = 1e-10, 1e-12, 50
@@ -258,11 +259,12 @@ def plain_dolfinx(problem, domain, solver_type):
 def export_mesh(domain, path):
     """Vertices and triangles of the (distributed) mesh, gathered into one .npz for legacy FEniCS."""
     import numpy as np
+    from nc_dolfinx import dolfinx_versions as versions
     msh = domain.mesh
     comm = msh.comm
     node_map = msh.geometry.index_map()
     n_cells = msh.topology.index_map(2).size_local
-    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_cells]
+    nodes = versions.geometry_nodes(msh)[:n_cells]
     cells = node_map.local_to_global(nodes.ravel()).reshape(-1, 3)
     n_local = node_map.size_local
     x = msh.geometry.x[:n_local, :2]
@@ -284,7 +286,7 @@ def worker(args):
     import logging
     logging.getLogger().addFilter(lambda record: record.levelno >= logging.WARNING)
     import nc_dolfinx as nc
-    from dolfinx import fem
+    from nc_dolfinx import dolfinx_versions as versions
     comm = MPI.COMM_WORLD
     jit = JitMeter()
     rss_start = current_rss_mb()
@@ -329,7 +331,7 @@ def worker(args):
 
     if not args.no_nested:
         j0 = jit.snapshot()
-        V = fem.VectorFunctionSpace(child.mesh, ("CG", 1))
+        V = versions.p1_space(child.mesh, (child.mesh.geometry.dim,))
         t = barrier_time(comm)
         initial = nc.transfer(solution.u, V)
         row["t_transfer"] = barrier_time(comm) - t
@@ -342,7 +344,8 @@ def worker(args):
         row.update(floor_columns(problem, child, "nested_"))
         row["ratio_nested"] = row["t_nested_solve"] / row["t_nested_linear"]
         row["ratio_nested_eq"] = row["t_nested_solve"] / row["t_nested_linear_eq"]
-        row["ratio_nested_ml"] = row["t_nested_solve"] / row["t_nested_linear_ml"]
+        row["ratio_nested_ml"] = (row["t_nested_solve"] / row["t_nested_linear_ml"]
+                                  if row["t_nested_linear_ml"] else None)
         row["ratio_nested_hypre"] = row["t_nested_solve"] / row["t_nested_linear_hypre"]
         _, a2 = adapt_step(nested, comm, False)
         row.update({f"t_nested_{k}": v for k, v in a2.items() if k != "marked"})

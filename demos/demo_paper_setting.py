@@ -58,6 +58,7 @@ from matplotlib.colors import LogNorm
 from mpi4py import MPI
 
 import nc_dolfinx as nc
+from nc_dolfinx import dolfinx_versions as versions
 
 from support import SMALL, check, draw_cells, output_directory, say  # the demos' plumbing: options, printing, checks
 
@@ -216,7 +217,7 @@ check(marked_share >= theta, f"Dörfler: the marked cells carry {marked_share:.4
 
 # %%
 child = nc.refine(domain, marked)
-V_child = fem.VectorFunctionSpace(child.mesh, ("CG", 1))
+V_child = versions.p1_space(child.mesh, (child.mesh.geometry.dim,))  # P1 vectors, in any DOLFINx's spelling
 u_carried = nc.transfer(u, V_child)
 say(f"refined: {domain.num_cells()} -> {child.num_cells()} cells")
 for name, norm_of in (("∫|u|²", lambda w: ufl.inner(w, w) * ufl.dx),

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+from nc_dolfinx import dolfinx_versions as versions
+
 comm = MPI.COMM_WORLD
 
 # Two warnings of the stack, not of the demos, would stop a demo under `python3 -W error`: FFCx 0.5 leaves
@@ -55,8 +57,8 @@ def gather_cells(field):
     rank 0 (None elsewhere). A DG0 field has one dof per cell."""
     msh = field.function_space.mesh
     n_owned = msh.topology.index_map(2).size_local
-    nodes = msh.geometry.dofmap.array.reshape(-1, 3)[:n_owned]
-    values = field.x.array[field.function_space.dofmap.list.array[:n_owned]]
+    nodes = versions.geometry_nodes(msh)[:n_owned]
+    values = field.x.array[versions.cell_dofs(field.function_space.dofmap)[:n_owned, 0]]
     parts = msh.comm.gather((msh.geometry.x[nodes][:, :, :2], values), root=0)
     if parts is None:
         return None, None

@@ -42,8 +42,9 @@ GROUPS = [
      ["solution_quantities", "errors", "integrate", "contact_projection", "lame", "sigma", "normal_stress",
       "contact_pressure", "contact_measure", "assemble_cellwise", "patch_sum", "hertz_line_contact", "compare_with_reference",
       "hertz_sphere_contact"]),
-    ("Utilities", "Errors, logging, and constants.",
-     ["InputError", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES"]),
+    ("Utilities", "Errors, logging, constants, and what differs between the supported DOLFINx versions.",
+     ["InputError", "UnsupportedDolfinx", "dolfinx_versions", "quiet_compilers", "show_progress",
+      "QUADRATURE_DEGREES"]),
 ]
 OTHER = "Other names"
 
@@ -85,7 +86,7 @@ def own_docstring(obj):
 def docstring(name):
     """The docstring of a public name (a constant's from ``__init__.py``), or None."""
     obj = getattr(nc, name)
-    if inspect.isclass(obj) or callable(obj):
+    if inspect.isclass(obj) or callable(obj) or inspect.ismodule(obj):
         return own_docstring(obj)
     return constant_docstrings(nc.__file__).get(name)
 
@@ -126,6 +127,8 @@ def signature(name, obj):
             return f"{kind} {name}"
     if callable(obj):
         return f"{name}{inspect.signature(obj)}"
+    if inspect.ismodule(obj):
+        return f"module {obj.__name__}"
     return f"{name} = {obj!r}"
 
 
@@ -187,7 +190,8 @@ def render():
         lines += [f"## {title}", "", intro, ""]
         for name in names:
             lines += entry(name)
-    return "\n".join(lines).rstrip() + "\n"
+    # Python 3.13 names pathlib's classes after their private module: the page is the same on every Python
+    return "\n".join(lines).rstrip().replace("pathlib._local.", "pathlib.") + "\n"
 
 
 def main(argv):

@@ -2,7 +2,7 @@
 
 Implements Fernández & Hild, "A posteriori error analysis for the normal compliance problem": the
 discrete problem (7) with P1 elements in 2D (plane strain) and 3D, the estimator of Definition 5 and the
-SOLVE → ESTIMATE → MARK → REFINE loop, on DOLFINx 0.5, serial or under mpirun.
+SOLVE → ESTIMATE → MARK → REFINE loop, on DOLFINx 0.5.2, 0.9 and 0.11 (Debian bookworm, trixie, sid), serial or under mpirun.
 
     from mpi4py import MPI
     import nc_dolfinx as nc
@@ -19,6 +19,7 @@ See docs/api.md and demos/.
 __version__ = "0.2.0"
 
 import os
+import sys
 
 # Reproducible parallel runs: Debian's PT-SCOTCH partitions with several threads, and the mesh partition
 # (hence GAMG's aggregates, the Newton and Krylov counts, the last digits) then changed from one run of the
@@ -26,10 +27,20 @@ import os
 # one thread). Read by SCOTCH when it partitions; an explicit setting in the environment wins.
 os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", "1")
 
+from .errors import UnsupportedDolfinx  # noqa: E402
+
+try:
+    from . import dolfinx_versions  # noqa: F401,E402 (first: it checks the installed DOLFINx's version)
+except UnsupportedDolfinx as err:
+    if os.path.basename(sys.argv[0]) in ("-m", "run_cases.py", "nc-dolfinx"):  # the command line
+        print(f"nc_dolfinx: error: {err}", file=sys.stderr, flush=True)
+        sys.exit(1)
+    raise
+
 from .adaptive import AdaptSettings, Level, Result, Solution, adapt, solve
 from .binding import Fields, bind, build_domain
 from .cases import case_names, case_path, case_titles
-from .errors import InputError
+from .errors import InputError, UnsupportedDolfinx
 from .estimator import CELL_DEGREE, CONTACT_DEGREE, Estimate, assemble_cellwise, estimate, patch_sum
 from .forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure
 from .log import quiet_compilers, show_progress
@@ -62,5 +73,6 @@ __all__ = [
     "solution_quantities", "errors", "integrate", "contact_projection",
     "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure",
     "assemble_cellwise", "patch_sum", "hertz_line_contact", "hertz_sphere_contact", "compare_with_reference",
-    "InputError", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES",
+    "InputError", "UnsupportedDolfinx", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES",
+    "dolfinx_versions",
 ]

@@ -16,7 +16,7 @@ from mpi4py import MPI
 
 from dolfinx import fem
 
-from . import estimator, forms, marking, quantities, refinement, schema
+from . import dolfinx_versions as versions, estimator, forms, marking, quantities, refinement, schema
 from .binding import bind
 from .errors import InputError
 from .solver import NonlinearSolver, SolveStats, solver_options
@@ -47,7 +47,7 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     """
     settings = problem.values["solver"]
     fields = bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
     if initial is None:
         u = fem.Function(V)
     elif initial.function_space.mesh is domain.mesh:

@@ -15,9 +15,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dolfinx import fem
-from dolfinx.cpp.mesh import entities_to_geometry
 
-from . import meshes, physics
+from . import dolfinx_versions as versions, meshes, physics
 from .errors import InputError
 from .expressions import to_ufl, to_ufl_vector
 from .problem import check_exponent, check_vector_sizes
@@ -199,7 +198,7 @@ def _symmetry_axis(domain, group_id, name):
     msh = domain.mesh
     tags = domain.facet_tags
     facets = tags.indices[tags.values == group_id]
-    nodes = entities_to_geometry(msh._mesh, msh.topology.dim - 1, facets, False)
+    nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
     x = msh.geometry.x[nodes.ravel(), :msh.geometry.dim]
     comm = domain.comm
     # elementwise over the coordinates (the pickling allreduce would compare whole arrays)
@@ -218,10 +217,9 @@ def _symmetry_axis(domain, group_id, name):
 def _check_on_contact(fields, name, expr):
     """c_n and g_0 must be finite and >= 0 on Γ_C: checked at the P1 nodes of the contact facets."""
     domain = fields.domain
-    V = fem.FunctionSpace(domain.mesh, ("CG", 1))
-    points = V.element.interpolation_points
+    V = versions.p1_space(domain.mesh)
     values = fem.Function(V)
-    values.interpolate(fem.Expression(expr, points() if callable(points) else points))
+    values.interpolate(fem.Expression(expr, versions.interpolation_points(V)))
     tags = domain.facet_tags
     facets = tags.indices[np.isin(tags.values, fields.ids["contact"])]
     dofs = fem.locate_dofs_topological(V, domain.mesh.topology.dim - 1, facets)

@@ -12,15 +12,15 @@ lies inside a level-0 one, and the same matcher re-tags the mesh after each refi
 partition or ghost mode (``transfer_facet_meshtag`` in DOLFINx 0.5 needs ``GhostMode.none``, which would
 break interior-facet integrals on partition boundaries).
 """
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import ufl
 from scipy.spatial import cKDTree
 
 import dolfinx
 from dolfinx import fem, mesh as dmesh
+
+from . import dolfinx_versions as versions
 
 UNTAGGED = 0
 _NEAREST = 8  # simplices checked exactly per point before the exhaustive fallback
@@ -133,7 +133,7 @@ def owned_exterior_facets(msh):
     tdim = msh.topology.dim
     msh.topology.create_entities(tdim - 1)
     msh.topology.create_connectivity(tdim - 1, tdim)
-    return np.sort(dolfinx.cpp.mesh.exterior_facet_indices(msh.topology)).astype(np.int32)
+    return np.sort(versions.exterior_facet_indices(msh)).astype(np.int32)
 
 
 def extent(boundary):
@@ -158,39 +158,11 @@ def cell_space(msh, dim=1):
 
     ``fem.FunctionSpace(msh, ("DG", 0))`` builds a dofmap with DOLFINx's numbering and reordering (0.02 s
     at 5e5 cells, at every refinement and in every estimate) for what is one dof per cell."""
-    tdim = msh.topology.dim
-    cells = msh.topology.index_map(tdim)
-    element, cpp_element = _cell_element(msh, dim)
-    # The layout DOLFINx gives a DG0 element: its one dof on the cell; blocked, one sub-layout per component.
-    on_cell = [[[] for _ in range(math.comb(tdim + 1, d + 1))] for d in range(tdim)] + [[[0]]]
-    components = [dolfinx.cpp.fem.ElementDofLayout(1, on_cell, on_cell, [i], []) for i in range(dim)]
-    layout = dolfinx.cpp.fem.ElementDofLayout(dim, on_cell, on_cell, [], components if dim > 1 else [])
+    cells = msh.topology.index_map(msh.topology.dim)
     n = cells.size_local + cells.num_ghosts
     identity = dolfinx.cpp.graph.AdjacencyList_int32(np.arange(n, dtype=np.int32), np.arange(n + 1, dtype=np.int32))
-    dofmap = dolfinx.cpp.fem.DofMap(layout, cells, dim, identity, dim)
-    return fem.FunctionSpace(msh, element, dolfinx.cpp.fem.FunctionSpace(msh._mesh, cpp_element, dofmap))
-
-
-_CELL_ELEMENTS = {}  # (cell, dim) -> the elements of cell_space, kept for meshes on one process
-
-
-def _cell_element(msh, dim):
-    """The UFL and the compiled DG0 element of ``dim`` components (scalar for 1) on the mesh's cell.
-
-    The JIT cache's lookup costs 1-2 ms (a listing of its directory), a few per estimate; on one process
-    the elements are kept. On several the lookup is collective (rank 0 first, then an allreduce), and a
-    rank that skipped it would leave the others waiting, so it is done every time."""
-    key = (msh.ufl_cell().cellname(), dim)
-    if msh.comm.size == 1 and key in _CELL_ELEMENTS:
-        return _CELL_ELEMENTS[key]
-    element = ufl.FiniteElement("DG", msh.ufl_cell(), 0)
-    if dim > 1:
-        element = ufl.VectorElement(element, dim=dim)
-    (ufcx_element, _), module, _ = dolfinx.jit.ffcx_jit(msh.comm, element)
-    result = element, dolfinx.cpp.fem.FiniteElement(module.ffi.cast("uintptr_t", module.ffi.addressof(ufcx_element)))
-    if msh.comm.size == 1:
-        _CELL_ELEMENTS[key] = result
-    return result
+    dofmap = dolfinx.cpp.fem.DofMap(versions.dof_layout_dg0(msh.topology.dim, dim), cells, dim, identity, dim)
+    return versions.cell_space_from_dofmap(msh, dim, dofmap)
 
 
 def region_function(msh, values_of_owned_cells):

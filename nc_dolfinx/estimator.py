@@ -56,7 +56,7 @@ from mpi4py import MPI
 import dolfinx
 from dolfinx import fem
 
-from . import forms, physics
+from . import dolfinx_versions as versions, forms, physics
 from .domain import cell_space
 from .estimator_geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
 from .estimator_kink import law_residual_squared
@@ -68,7 +68,6 @@ NAMES = ("eta_1", "eta_2", "eta_3", "eta_4", "eta", "zeta")
 CELL_DEGREE = 8
 CONTACT_DEGREE = 24        # Γ_C on unsplit edges (2D): 13 Gauss points
 CONTACT_DEGREE_SPLIT = 16  # Γ_C on each piece of a split face (3D): 55 points
-FORM_COMPILER = {"scalar_type": "double"}  # what fem.form passes to FFCx for PETSc's scalars
 
 
 @dataclass
@@ -98,7 +97,7 @@ def assemble_cellwise(form, space):
     bs = space.dofmap.index_map_bs
     vec = dolfinx.la.vector(space.dofmap.index_map, bs)  # zeros; no PETSc object, no copy of its values
     fem.assemble_vector(vec.array, compile_form(form))
-    vec.scatter_reverse(dolfinx.la.ScatterMode.add)
+    vec.scatter_reverse(versions.SCATTER_ADD)
     return vec.array[:space.dofmap.index_map.size_local * bs].reshape(-1, bs)  # (a view keeps vec alive)
 
 
@@ -117,11 +116,9 @@ def compile_form(form):
     msh = form.ufl_domain().ufl_cargo()
     interior = form.integrals_by_type("interior_facet")
     if interior and all(i.metadata().get("quadrature_degree") == 0 for i in interior):
-        ufcx_form = dolfinx.jit.ffcx_jit(msh.comm, form, form_compiler_params=dict(FORM_COMPILER))[0]
-        kind = int(dolfinx.cpp.fem.IntegralType.interior_facet)
-        for i in range(ufcx_form.num_integrals(kind)):
-            ufcx_form.integrals(kind)[i].needs_facet_permutations = False
-    return fem.form(form, form_compiler_params=dict(FORM_COMPILER))
+        for integral in versions.interior_facet_integrals(msh.comm, form, dict(versions.FORM_COMPILER)):
+            integral.needs_facet_permutations = False
+    return versions.compile_form(form, dict(versions.FORM_COMPILER))
 
 
 def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kinks=None):
@@ -233,7 +230,8 @@ def _value(expression):
     """The value (an array of its shape) of a UFL expression that is the same everywhere (:func:`_constant`:
     numbers and ``fem.Constant``s)."""
     constants = {c: c.value for c in ufl.algorithms.extract_type(expression, ufl.Constant)}
-    origin = (0.0,) * expression.ufl_domain().geometric_dimension() if expression.ufl_domain() else ()
+    domain = ufl.domain.extract_unique_domain(expression)
+    origin = (0.0,) * versions.geometric_dimension(domain) if domain else ()
     return np.array([float(expression[i](origin, constants)) for i in np.ndindex(expression.ufl_shape)])
 
 
@@ -272,5 +270,5 @@ def _varying_neumann_terms(u, fields, degree, varying):
         terms[cells, 0] += np.sum(values[:, :gdim] ** 2, axis=1) / F  # a cell is once in a layer
         h_F = diameters(msh, tdim - 1, facets)
         terms[cells, 1] += h_F * np.maximum(values[:, 2 * gdim] - g_mean_sq, 0.0)
-    per_cell.scatter_reverse(dolfinx.la.ScatterMode.add)
+    per_cell.scatter_reverse(versions.SCATTER_ADD)
     return terms[:n_owned, 0], terms[:n_owned, 1]

@@ -18,10 +18,12 @@ from mpi4py import MPI
 import dolfinx
 from dolfinx import fem, mesh as dmesh
 
+from . import dolfinx_versions as versions
+
 
 def diameters(msh, dim, entities):
     """Diameters (longest edge) of local mesh entities of dimension ``dim`` (DOLFINx's C++ ``h``)."""
-    return dolfinx.cpp.mesh.h(msh._mesh, dim, np.asarray(entities, dtype=np.int32))
+    return versions.diameters(msh, dim, entities)
 
 
 def cell_diameters(msh):
@@ -91,7 +93,7 @@ def patch_sum(o, Q):
         S = dolfinx.la.vector(msh.topology.index_map(d))
         S.array[:] = np.bincount(entities.ravel(), weights=np.repeat(o, entities.shape[1]),
                                  minlength=len(S.array))
-        S.scatter_reverse(dolfinx.la.ScatterMode.add)
+        S.scatter_reverse(versions.SCATTER_ADD)
         S.scatter_forward()
         term = S.array[entities].sum(axis=1)
         total = term if d == 0 else total + (-1) ** d * term

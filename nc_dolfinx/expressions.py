@@ -21,6 +21,7 @@ import operator
 import numpy as np
 import ufl
 
+from . import dolfinx_versions as versions
 from .errors import InputError
 
 COORDINATES = ("x", "y", "z")
@@ -178,7 +179,7 @@ def to_ufl(text, mesh, parameters=None):
     fold = lambda value: fem.Constant(mesh, np.float64(value))  # noqa: E731
     try:
         return _ConstantFolder(coordinates, parameters or {}, text, fold).visit(_parse(text).body)
-    except (ufl.UFLException, TypeError, ValueError, ZeroDivisionError, OverflowError) as err:
+    except (*versions.UFL_ERRORS, TypeError, ValueError, ZeroDivisionError, OverflowError) as err:
         raise InputError(f"cannot evaluate expression '{text}': {err}") from None
 
 

@@ -8,8 +8,8 @@ waiting for one that failed.
 """
 import gmsh
 import numpy as np
-from dolfinx.io import gmshio
 
+from . import dolfinx_versions as versions
 from .errors import InputError
 from .meshes import SUPPORTED, from_dolfinx
 
@@ -61,7 +61,7 @@ def _to_domain(comm, model, rank, where):
             error = f"cannot read {where}: {err}"
     _raise_everywhere(comm, error, rank)
     facet_names, cell_names, tdim = comm.bcast(info, root=rank)
-    msh, cell_tags, facet_tags = gmshio.model_to_mesh(model, comm, rank, gdim=tdim)
+    msh, cell_tags, facet_tags = versions.model_to_mesh(model, comm, rank, gdim=tdim)
     return from_dolfinx(msh, facet_tags, facet_names, cell_tags, cell_names)
 
 

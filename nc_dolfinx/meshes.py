@@ -7,14 +7,13 @@ same geometric matcher, in 2D and 3D alike.
 import itertools
 
 import numpy as np
-import ufl
 from mpi4py import MPI
 
-import dolfinx
 from dolfinx import fem, mesh as dmesh
 
 from .domain import (UNTAGGED, Domain, distance_to_simplices, match_simplices,  # noqa: F401 (re-exported)
                      cell_space, owned_exterior_facets, region_function, tag_exterior_facets)
+from . import dolfinx_versions as versions
 from .errors import InputError
 
 RECTANGLE_SIDES = {"left": 1, "right": 2, "bottom": 3, "top": 4}
@@ -27,8 +26,7 @@ SUPPORTED = "only linear triangles (2D) and tetrahedra (3D) are supported"
 def rectangle(comm, corners, cells, diagonal="right"):
     """Rectangle whose sides are the groups left/right/bottom/top (ids 1-4), one region 'body' (id 1)."""
     low, high, cells = _axis_aligned_input("rectangle", corners, cells, 2)
-    msh = dmesh.create_rectangle(comm, [low, high], cells, dmesh.CellType.triangle,
-                                 dmesh.GhostMode.shared_facet, diagonal=getattr(dmesh.DiagonalType, diagonal))
+    msh = versions.create_rectangle(comm, [low, high], cells, diagonal)
     return _axis_aligned_domain(msh, low, high, RECTANGLE_SIDES)
 
 
@@ -36,7 +34,7 @@ def box(comm, corners, cells):
     """Box of tetrahedra whose faces are the groups left/right (x = x0/x1), front/back (y = y0/y1) and
     bottom/top (z = z0/z1), ids 1-6; one region 'body' (id 1)."""
     low, high, cells = _axis_aligned_input("box", corners, cells, 3)
-    msh = dmesh.create_box(comm, [low, high], cells, dmesh.CellType.tetrahedron, dmesh.GhostMode.shared_facet)
+    msh = versions.create_box(comm, [low, high], cells)
     return _axis_aligned_domain(msh, low, high, BOX_SIDES)
 
 
@@ -58,12 +56,7 @@ def _axis_aligned_input(kind, corners, cells, gdim):
 
 
 def _axis_aligned_domain(msh, low, high, sides):
-    # The coordinate element as gmshio declares it (equispaced P1). FFCx 0.5 gives that variant to the
-    # element while compiling, and refined meshes inherit it, so without this the first refined level
-    # would compile its forms a second time.
-    cell = msh.topology.cell_type.name
-    element = ufl.VectorElement(ufl.FiniteElement("Lagrange", cell, 1, variant="equispaced"))
-    msh = dmesh.Mesh(msh._mesh, ufl.Mesh(element))
+    msh = versions.with_equispaced_coordinates(msh)
     boundary = _box_faces(low, high)
     n_owned = msh.topology.index_map(msh.topology.dim).size_local
     return Domain(msh, tag_exterior_facets(msh, boundary), region_function(msh, np.ones(n_owned)),
@@ -120,7 +113,7 @@ def from_dolfinx(mesh, facet_tags, facet_names=None, cell_tags=None, cell_names=
 
 def _check_linear_simplices(msh, where="mesh"):
     cell, gdim = msh.topology.cell_type, msh.geometry.dim
-    degree = msh.ufl_domain().ufl_coordinate_element().degree()
+    degree = versions.coordinate_degree(msh)
     if cell not in (dmesh.CellType.triangle, dmesh.CellType.tetrahedron) or degree != 1 or gdim != msh.topology.dim:
         raise InputError(f"{where} of {cell.name} cells of degree {degree} in {gdim}D: {SUPPORTED}")
 
@@ -143,7 +136,7 @@ def _owned_cell_values(msh, cell_tags):
     total.x.array[cell_tags.indices] = cell_tags.values
     count.x.array[cell_tags.indices] = 1.0
     for fn in (total, count):
-        fn.x.scatter_reverse(dolfinx.la.ScatterMode.add)
+        fn.x.scatter_reverse(versions.SCATTER_ADD)
     n_owned = msh.topology.index_map(msh.topology.dim).size_local
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(count.x.array[:n_owned] > 0, total.x.array[:n_owned] / count.x.array[:n_owned], np.nan)
@@ -153,7 +146,7 @@ def gather_boundary(msh, facet_tags):
     """Every owned exterior facet of every rank as (vertices (n, tdim, gdim), ids (n,)), on all ranks."""
     tdim, gdim = msh.topology.dim, msh.geometry.dim
     facets = owned_exterior_facets(msh)
-    nodes = dolfinx.cpp.mesh.entities_to_geometry(msh._mesh, tdim - 1, facets, False)
+    nodes = versions.entities_to_geometry(msh, tdim - 1, facets)
     vertices = msh.geometry.x[nodes.reshape(-1)][:, :gdim].reshape(len(facets), tdim, gdim)
     ids = np.full(len(facets), UNTAGGED, dtype=np.int32)
     if facet_tags is not None and len(facet_tags.indices):

@@ -12,23 +12,16 @@ import ctypes
 import numpy as np
 from petsc4py import PETSc
 
+from .dolfinx_versions import libpetsc
 from .errors import InputError
 from .solver import PREFIX
 
 ALLOW_FLAG = "--allow-unused-petsc-options"
 
 
-def _libpetsc():
-    with open("/proc/self/maps") as fh:
-        paths = {line.split()[-1] for line in fh if "/libpetsc" in line and ".so" in line}
-    if len(paths) != 1:
-        raise OSError(f"cannot tell which libpetsc petsc4py uses (found {sorted(paths)})")
-    return ctypes.CDLL(paths.pop())
-
-
 def unread_options():
     """Names (without the dash, prefix included) of the options in PETSc's database that nothing read."""
-    lib = _libpetsc()
+    lib = libpetsc()
     count = (ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32)(0)
     names, values = ctypes.POINTER(ctypes.c_char_p)(), ctypes.POINTER(ctypes.c_char_p)()
     args = (None, ctypes.byref(count), ctypes.byref(names), ctypes.byref(values))

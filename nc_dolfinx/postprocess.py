@@ -1,7 +1,7 @@
 """Fields for output beside the solution and its indicators, and the XDMF files that hold them."""
 from dolfinx import fem, io
 
-from . import forms, physics
+from . import dolfinx_versions as versions, forms, physics
 from .quantities import contact_projection
 
 
@@ -16,8 +16,8 @@ def write_xdmf(comm, path, mesh, functions):
 def postprocess_fields(u, fields):
     """Stress (3×3: plane strain has σ_zz = λ tr ε), von Mises (DG0) and the nodal contact pressure (P1)."""
     msh = u.function_space.mesh
-    T = fem.TensorFunctionSpace(msh, ("DG", 0), shape=(3, 3))
-    Q = fem.FunctionSpace(msh, ("DG", 0))
+    T = versions.dg0_space(msh, (3, 3))
+    Q = versions.dg0_space(msh)
     stress = _interpolate(T, physics.stress_3x3(u, fields.lmbda, fields.mu), "stress")
     vm = _interpolate(Q, physics.von_mises(u, fields.lmbda, fields.mu), "von_mises")
     pressure = contact_projection(forms.contact_pressure(u, fields), fields, "contact_pressure")
@@ -26,6 +26,5 @@ def postprocess_fields(u, fields):
 
 def _interpolate(space, expr, name):
     fn = fem.Function(space, name=name)
-    points = space.element.interpolation_points
-    fn.interpolate(fem.Expression(expr, points() if callable(points) else points))
+    fn.interpolate(fem.Expression(expr, versions.interpolation_points(space)))
     return fn

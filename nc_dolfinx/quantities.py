@@ -8,7 +8,7 @@ from petsc4py import PETSc
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
-from . import forms
+from . import dolfinx_versions as versions, forms
 from . import physics
 
 ERROR_DEGREE = 8
@@ -52,7 +52,7 @@ def contact_projection(expr, fields, name):
     """Lumped L² projection of a UFL quantity ``expr`` on Γ_C (the contact boundary of §2, e.g. the
     pressure of the law (4)) onto P1: q_i = ∫_Γ_C q φ_i / ∫_Γ_C φ_i, zero off Γ_C. Returns a scalar P1
     ``fem.Function`` called ``name``."""
-    V = fem.FunctionSpace(fields.domain.mesh, ("CG", 1))
+    V = versions.p1_space(fields.domain.mesh)
     v = ufl.TestFunction(V)
     dC = forms.contact_measure(fields)
     num, den = (fem_petsc.assemble_vector(fem.form(q * v * dC)) for q in (expr, 1.0))

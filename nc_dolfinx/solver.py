@@ -32,10 +32,10 @@ from ufl.corealg.multifunction import MultiFunction
 from mpi4py import MPI
 from petsc4py import PETSc
 
-import dolfinx
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
+from . import dolfinx_versions as versions
 from .errors import InputError
 
 PREFIX = "nc_"
@@ -239,7 +239,8 @@ def rigid_body_modes(V):
     bs = V.dofmap.index_map_bs
     x = V.tabulate_dof_coordinates()[:index_map.size_local, :bs]
     rotations = [(i, j) for i in range(bs) for j in range(i + 1, bs)]
-    vectors = [dolfinx.la.create_petsc_vector(index_map, bs) for _ in range(bs + len(rotations))]
+    vectors = [PETSc.Vec().createMPI((index_map.size_local * bs, PETSc.DETERMINE), bsize=bs, comm=V.mesh.comm)
+               for _ in range(bs + len(rotations))]
     arrays = [v.array.reshape(-1, bs) for v in vectors]
     for a in arrays:
         a[:] = 0.0
@@ -248,7 +249,10 @@ def rigid_body_modes(V):
     for a, (i, j) in zip(arrays[bs:], rotations):  # rotation in the (x_i, x_j) plane
         a[:, i] = -x[:, j]
         a[:, j] = x[:, i]
-    dolfinx.la.orthonormalize(vectors)
+    for i, vector in enumerate(vectors):  # Gram–Schmidt, as dolfinx.la.orthonormalize of DOLFINx 0.5
+        for previous in vectors[:i]:
+            vector.axpy(-vector.dot(previous), previous)
+        vector.normalize()
     return PETSc.NullSpace().create(vectors=vectors, comm=V.mesh.comm)
 
 
@@ -415,7 +419,7 @@ class NonlinearSolver:
         self.comm = V.mesh.comm
         self._assemble_constant_parts(forms)
         dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
-        self.preset, self.options = resolve_options(options, V.dofmap.index_map_bs, dofs, u.vector.norm() > 0)
+        self.preset, self.options = resolve_options(options, V.dofmap.index_map_bs, dofs, versions.petsc_vec(u).norm() > 0)
         self.user_keys = {key.lstrip("-") for key in options}
         self.near_nullspace = rigid_body_modes(V)
         self._configure(self.K)
@@ -451,9 +455,9 @@ class NonlinearSolver:
         self.load_factor = 1.0
         self.load_abs = None  # |L|, made when _within_roundoff first needs it
         self.xKx = (None, None, 0.0)  # (x's handle, its state, xᵀKx): see _residual
-        self.contact = fem_petsc.create_vector(self.j_n)
-        self.b = fem_petsc.create_vector(self.j_n)
-        self.work, self.trial, self.predicted = self.K.createVecRight(), self.u.vector.copy(), self.K.createVecRight()
+        self.contact = versions.create_petsc_vector(self.j_n)
+        self.b = versions.create_petsc_vector(self.j_n)
+        self.work, self.trial, self.predicted = self.K.createVecRight(), versions.petsc_vec(self.u).copy(), self.K.createVecRight()
 
     def _create_snes(self):
         set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
@@ -477,8 +481,8 @@ class NonlinearSolver:
 
     def _update(self, x):
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        x.copy(self.u.vector)
-        self.u.vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        x.copy(versions.petsc_vec(self.u))
+        versions.petsc_vec(self.u).ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
     def _assemble_contact(self, x):
         """j_n(x, ·) into self.contact (Dirichlet rows zero)."""
@@ -839,7 +843,7 @@ class NonlinearSolver:
         self.target, self.previous_fnorm, self.cut_steps = target, math.inf, 0
         roundoff = False  # ended within the residual's round-off (see _within_roundoff)
         try:
-            self.snes.solve(None, x)
+            versions.solve_raising_callback_errors(self.snes, x)
             reason = self.snes.getConvergedReason()
         except _LineSearchFailure:  # x is still the iterate the line search started from
             reason = PETSc.SNES.ConvergedReason.DIVERGED_LINE_SEARCH
@@ -1026,7 +1030,7 @@ class NonlinearSolver:
     def solve(self, load_steps=1):
         """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""
         stats, start = SolveStats(), time.perf_counter()
-        x = self.u.vector.copy()
+        x = versions.petsc_vec(self.u).copy()
         fem_petsc.set_bc(x, self.bcs)  # homogeneous Dirichlet data: the guess must satisfy it
         self._reset_preconditioner_state()
         recoveries = []

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import dolfinx_versions as versions
+
 VTK_CELL = {1: 3, 2: 5, 3: 10}  # topological dimension -> VTK_LINE, VTK_TRIANGLE, VTK_TETRA
 _TYPES = {np.dtype(np.float64): "Float64", np.dtype(np.int64): "Int64", np.dtype(np.int32): "Int32",
           np.dtype(np.uint8): "UInt8"}
@@ -27,7 +29,7 @@ def piece_data(point_functions, cell_functions):
     msh = first.function_space.mesh
     n_owned = msh.topology.index_map(msh.topology.dim).size_local
     space = first.function_space
-    nodes = space.dofmap.list.array.reshape(-1, space.dofmap.dof_layout.num_dofs)[:n_owned]
+    nodes = versions.cell_dofs(space.dofmap)[:n_owned]
     used, cells = np.unique(nodes, return_inverse=True)
     cells = cells.reshape(nodes.shape)
     points = space.tabulate_dof_coordinates()[used]
@@ -41,7 +43,7 @@ def _p1_values(fn, nodes, used):
     """Values of a P1 function at the ``used`` nodes of ``nodes`` (the reference space's cell nodes)."""
     space = fn.function_space
     bs = space.dofmap.index_map_bs
-    own = space.dofmap.list.array.reshape(-1, space.dofmap.dof_layout.num_dofs)[:len(nodes)]
+    own = versions.cell_dofs(space.dofmap)[:len(nodes)]
     values = np.empty((used.max() + 1 if len(used) else 0, bs))
     values[nodes.ravel()] = fn.x.array.reshape(-1, bs)[own.ravel()]  # same vertex order in every P1 space
     return values[used]
@@ -51,7 +53,7 @@ def dg0_values(fn, n_owned):
     """Values (n_owned, block size) of a DG0 function on the owned cells."""
     space = fn.function_space
     bs = space.dofmap.index_map_bs
-    dofs = space.dofmap.list.array.reshape(-1, space.dofmap.dof_layout.num_dofs)[:n_owned, 0]
+    dofs = versions.cell_dofs(space.dofmap)[:n_owned, 0]
     return fn.x.array.reshape(-1, bs)[dofs]
 
 

@@ -7,6 +7,7 @@ import dolfinx
 from dolfinx import mesh as dmesh
 
 import nc_dolfinx as nc
+from nc_dolfinx import dolfinx_versions as versions
 
 CASES = ROOT / "nc_dolfinx" / "cases"
 
@@ -46,7 +47,7 @@ def test_refined_cells_cluster_at_the_singularities(corner_runs):
     (_, final, _), _ = corner_runs
     msh = final.u.function_space.mesh
     cells = np.arange(msh.topology.index_map(2).size_local, dtype=np.int32)
-    size = dolfinx.cpp.mesh.h(msh._cpp_object if hasattr(msh, "_cpp_object") else msh._mesh, 2, cells)
+    size = versions.diameters(msh, 2, cells)
     mid = dmesh.compute_midpoints(msh, 2, cells)[:, :2]
     singular = np.array([[0.0, 2.0], [1.0, 1.0], [0.0, 0.0]])
     convex = np.array([[2.0, 0.0], [2.0, 1.0], [1.0, 2.0]])

@@ -49,7 +49,7 @@ CITATION = re.compile(r"\(\d+\)|\bDefinition \d|\bDef\. \d|§\s?\d|\bRemark \d|\
                       r"\bCorollary \d|Dörfler|Plaza|Hertz|nested iteration")
 NO_CITATION_NEEDED = {"load_problem", "case_names", "case_titles", "DEFAULT_CASE", "case_path", "build_domain", "rectangle", "box", "from_gmsh",
                       "from_gmsh_model", "from_dolfinx", "integrate", "InputError", "quiet_compilers",
-                      "show_progress"}
+                      "show_progress", "UnsupportedDolfinx", "dolfinx_versions"}
 
 
 def _load_make_api():

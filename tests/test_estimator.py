@@ -26,6 +26,7 @@ from conftest import ROOT, run
 from dolfinx import fem, mesh as dmesh
 from nc_dolfinx.estimator import CONTACT_DEGREE, NAMES, estimate
 from nc_dolfinx import Problem, bind, build_domain
+from nc_dolfinx import dolfinx_versions as versions
 from nc_dolfinx.physics import lame
 
 RTOL = 1e-12
@@ -239,7 +240,7 @@ def write_msh(path, points, cells, groups):
     lines += [f'{tdim - 1} {phys[name]} "{name}"' for name in names] + [f'{tdim} {body} "body"', "$EndPhysicalNames"]
     xyz = np.zeros((len(points), 3))
     xyz[:, :points.shape[1]] = points
-    lines += ["$Nodes", str(len(points))] + [f"{i + 1} {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(xyz)]
+    lines += ["$Nodes", str(len(points))] + [f"{i + 1} {float(x)!r} {float(y)!r} {float(z)!r}" for i, (x, y, z) in enumerate(xyz)]
     lines += ["$EndNodes", "$Elements", str(len(groups) + len(cells))]
     k = 0
     for e, (facet, name) in enumerate(groups.items()):
@@ -274,7 +275,7 @@ def setup_case(name, tmp_path, data=None):
     problem = Problem.from_dict(data, f"case {name}")
     domain = build_domain(problem, MPI.COMM_WORLD)
     fields = bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
     return fields, V, (points, tris, side, spec_of(data))
 
 

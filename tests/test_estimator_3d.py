@@ -29,6 +29,7 @@ from test_estimator import (assert_close, computed_by_cell, prescribe, run_for_r
                             triangle_rule, write_msh)
 from dolfinx import fem, mesh as dmesh
 from nc_dolfinx import Problem, bind, build_domain
+from nc_dolfinx import dolfinx_versions as versions
 from nc_dolfinx.estimator import NAMES, assemble_cellwise, estimate, patch_sum
 from nc_dolfinx.physics import lame, sigma
 
@@ -269,7 +270,7 @@ def make_case(tmp_path, data=CASE):
     problem = Problem.from_dict(data, "tetrahedra")
     domain = build_domain(problem, MPI.COMM_WORLD)
     fields = bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
     return fields, V, points, grid, tets, spec_of(data, roles)
 
 
@@ -400,7 +401,7 @@ def test_patch_sum_brute_force(tmp_path):
     only, so the 2D formula Σ_x S_x − 2 o_K − Σ_N o_N (which counts an edge-neighbour twice) would fail."""
     fields, V, points, grid, tets, spec = make_case(tmp_path)
     msh = fields.domain.mesh
-    Q = fem.FunctionSpace(msh, ("DG", 0))
+    Q = versions.dg0_space(msh)
     shared = np.array([[len(set(a) & set(b)) for b in tets] for a in tets])
     assert {1, 2, 3} <= set(shared.ravel()), "vertex-, edge- and face-neighbours"
     centroids = points[tets].mean(axis=1)
@@ -479,9 +480,9 @@ def test_parallel_matches_serial():
 
 def jump_form(msh, degree):
     """Σ_F ∫_F |[σ(u) ν]|² w, for a random P1 field u, assembled against DG0 w on both sides of F."""
-    u = fem.Function(fem.VectorFunctionSpace(msh, ("CG", 1)))
+    u = fem.Function(versions.p1_space(msh, (msh.geometry.dim,)))
     u.x.array[:] = np.random.default_rng(7).uniform(-1, 1, u.x.array.size)
-    w = ufl.TestFunction(fem.FunctionSpace(msh, ("DG", 0)))
+    w = ufl.TestFunction(versions.dg0_space(msh))
     n, s = ufl.FacetNormal(msh), sigma(u, 1.3, 0.7)
     jump = s("+") * n("+") + s("-") * n("-")
     return ufl.inner(jump, jump) * (w("+") + w("-")) * ufl.dS(metadata={"quadrature_degree": degree})
@@ -501,12 +502,12 @@ def test_one_point_jumps_need_no_facet_permutations():
     msh, reference = perturbed_box(), perturbed_box()
     # DOLFINx's own path first: the switch is kept in the compiled module, which both forms share
     vec = fem.assemble_vector(fem.form(jump_form(reference, 0)))
-    vec.scatter_reverse(dolfinx.la.ScatterMode.add)
-    assert reference.topology.index_map(1) is not None  # it builds the edges for the permutations
-    values = assemble_cellwise(jump_form(msh, 0), fem.FunctionSpace(msh, ("DG", 0)))[:, 0]
-    assert msh.topology.index_map(1) is None  # no edges, hence no permutations, were needed
+    vec.scatter_reverse(versions.SCATTER_ADD)
+    assert versions.entities_built(reference, 1)  # it builds the edges for the permutations
+    values = assemble_cellwise(jump_form(msh, 0), versions.dg0_space(msh))[:, 0]
+    assert not versions.entities_built(msh, 1)  # no edges, hence no permutations, were needed
     expected = vec.array[:len(values)]
     assert np.min(expected) > 0
     assert np.max(np.abs(values - expected)) <= 1e-13 * np.max(expected)
-    assemble_cellwise(jump_form(msh, 2), fem.FunctionSpace(msh, ("DG", 0)))
-    assert msh.topology.index_map(1) is not None  # a rule with several points is permuted as FFCx asks
+    assemble_cellwise(jump_form(msh, 2), versions.dg0_space(msh))
+    assert versions.entities_built(msh, 1)  # a rule with several points is permuted as FFCx asks

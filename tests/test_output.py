@@ -156,11 +156,11 @@ def test_vtu_writer_in_3d(tmp_path):
     from mpi4py import MPI
     import dolfinx
     from dolfinx import fem
-    from nc_dolfinx import vtu
+    from nc_dolfinx import dolfinx_versions as versions, vtu
     msh = dolfinx.mesh.create_unit_cube(MPI.COMM_SELF, 2, 2, 2)
-    u = fem.Function(fem.VectorFunctionSpace(msh, ("CG", 1)))
+    u = fem.Function(versions.p1_space(msh, (3,)))
     u.interpolate(lambda x: np.stack([x[0], 2 * x[1], 3 * x[2]]))
-    T = fem.Function(fem.TensorFunctionSpace(msh, ("DG", 0)))
+    T = fem.Function(versions.dg0_space(msh, (3, 3)))
     T.interpolate(lambda x: np.einsum("ip,jp->ijp", x, x).reshape(9, -1))
     vtu.write(MPI.COMM_SELF, tmp_path, "cube", {"displacement": u}, {"T": T})
     x, cells, pdata, cdata = read_pvtu(tmp_path / "cube.pvtu")

@@ -15,6 +15,7 @@ from conftest import ROOT, run, run_cli, summary
 from mpi.square import square_problem
 import nc_dolfinx as nc
 from nc_dolfinx import forms
+from nc_dolfinx import dolfinx_versions as versions
 from nc_dolfinx.errors import InputError
 from nc_dolfinx.solver import (Forcing, NonlinearSolver, choose_preset, rigid_body_modes, resolve_options,
                                solver_options)
@@ -302,7 +303,7 @@ def test_when_nothing_helps_the_error_is_one_clear_line():
 def objective_history(c_n, m_n):
     problem, domain = square(c_n, m_n)
     fields = nc.bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
     u = fem.Function(V)
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
                              solver_options("iterative"), "auto")
@@ -320,7 +321,7 @@ def test_the_first_krylov_tolerance_is_chosen_again_on_every_solve():
     goes back to the preset's rtol0."""
     problem, domain = square(100.0, 2)
     fields = nc.bind(problem, domain)
-    V = fem.VectorFunctionSpace(domain.mesh, ("CG", 1))
+    V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
     u = fem.Function(V)
     options = solver_options("iterative")
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
@@ -401,7 +402,7 @@ def test_rigid_body_modes_in_3d_are_the_kernel_of_the_free_stiffness():
     stiffness, and GAMG with them (``-pc_type gamg``; BoomerAMG, the default, does not read them) solves
     the clamped box through NonlinearSolver (any forms work)."""
     msh = dmesh.create_box(MPI.COMM_WORLD, [np.zeros(3), np.array([2.0, 1.0, 1.0])], [8, 4, 4])
-    V = fem.VectorFunctionSpace(msh, ("CG", 1))
+    V = versions.p1_space(msh, (msh.geometry.dim,))
     u, v, du = fem.Function(V), ufl.TestFunction(V), ufl.TrialFunction(V)
 
     def sigma(w):

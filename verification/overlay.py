@@ -35,19 +35,16 @@ def affine(X, T, U):
 def _serial_mesh(X, T):
     """A serial DOLFINx mesh of (X, T) and, per DOLFINx cell, its row in T."""
     from mpi4py import MPI
-    import ufl
-    from dolfinx import mesh as dmesh
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1))
-    msh = dmesh.create_mesh(MPI.COMM_SELF, np.asarray(T, dtype=np.int64), np.ascontiguousarray(X), domain)
+    from nc_dolfinx import dolfinx_versions as versions
+    msh = versions.create_serial_mesh(MPI.COMM_SELF, T, X)
     return msh, np.asarray(msh.topology.original_cell_index)
 
 
 def _candidate_pairs(Xa, Ta, Xb, Tb):
-    from dolfinx import geometry
+    from nc_dolfinx import dolfinx_versions as versions
     ma, oa = _serial_mesh(Xa, Ta)
     mb, ob = _serial_mesh(Xb, Tb)
-    ta, tb = geometry.BoundingBoxTree(ma, 2), geometry.BoundingBoxTree(mb, 2)
-    pairs = np.asarray(geometry.compute_collisions(ta, tb), dtype=np.int64).reshape(-1, 2)
+    pairs = versions.colliding_cell_pairs(ma, mb)
     return np.asarray(oa)[pairs[:, 0]], np.asarray(ob)[pairs[:, 1]]
 
 

@@ -19,6 +19,7 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
 import nc_dolfinx as nc
+from nc_dolfinx import dolfinx_versions as versions
 
 
 def external_load(fields, v):
@@ -33,7 +34,7 @@ def solve_signorini(problem, domain, rtol=1e-12, atol=1e-13):
     """Returns (fields, u_S, info) on ``domain``; ``problem``'s c_n and m_n are not used."""
     fields = nc.bind(problem, domain)
     msh = domain.mesh
-    V = fem.VectorFunctionSpace(msh, ("CG", 1))
+    V = versions.p1_space(msh, (msh.geometry.dim,))
     u = fem.Function(V, name="signorini")
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
     a = fem.form(ufl.inner(nc.sigma(du, fields.lmbda, fields.mu), ufl.sym(ufl.grad(v))) * ufl.dx)
@@ -53,8 +54,7 @@ def solve_signorini(problem, domain, rtol=1e-12, atol=1e-13):
     Vy, _ = V.sub(vertical).collapse()
     dofs_y, dofs_Vy = fem.locate_dofs_topological((V.sub(vertical), Vy), fdim, contact_facets)
     gap = fem.Function(Vy)  # g_0 at the nodes
-    points = Vy.element.interpolation_points
-    gap.interpolate(fem.Expression(fields.gap, points() if callable(points) else points))
+    gap.interpolate(fem.Expression(fields.gap, versions.interpolation_points(Vy)))
     normal_check = ufl.FacetNormal(msh)
     ny = fem.assemble_scalar(fem.form(normal_check[vertical] * fields.ds_of("contact")))
     length = fem.assemble_scalar(fem.form(1.0 * fields.ds_of("contact")))
@@ -62,7 +62,7 @@ def solve_signorini(problem, domain, rtol=1e-12, atol=1e-13):
     if abs(ny + length) > 1e-10 * length:
         raise ValueError("solve_signorini needs a flat bottom contact boundary (ν = −e_d, d the last axis)")
 
-    lower, upper = u.vector.duplicate(), u.vector.duplicate()
+    lower, upper = versions.petsc_vec(u).duplicate(), versions.petsc_vec(u).duplicate()
     lower.set(PETSc.NINFINITY)
     upper.set(PETSc.INFINITY)
     n_owned = V.dofmap.index_map.size_local * dim
@@ -88,12 +88,12 @@ def solve_signorini(problem, domain, rtol=1e-12, atol=1e-13):
     snes.setJacobian(jacobian, K, K)
     snes.setVariableBounds(lower, upper)
     snes.setFromOptions()
-    x = u.vector.copy()
+    x = versions.petsc_vec(u).copy()
     x.set(0.0)
     snes.solve(None, x)
     reason = snes.getConvergedReason()
     its = snes.getIterationNumber()
-    x.copy(u.vector)
+    x.copy(versions.petsc_vec(u))
     u.x.scatter_forward()
     # active set and the contact reaction R = −(K u − L) on the bounded dofs (the discrete multiplier)
     r = load.duplicate()

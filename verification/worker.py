@@ -25,6 +25,7 @@ import dolfinx.fem.petsc  # noqa: F401  (fem.petsc)
 from petsc4py import PETSc
 
 import nc_dolfinx as nc
+from nc_dolfinx import dolfinx_versions as versions
 
 COMM = MPI.COMM_WORLD
 
@@ -128,7 +129,7 @@ def local_efficiency(level):
     """Per cell: η_K, the exact local error ‖u − u_h‖_{1,ω_K} over the vertex patch, and the contact term."""
     u, fields = level.u, level.fields
     msh = u.function_space.mesh
-    Q = fem.FunctionSpace(msh, ("DG", 0))
+    Q = versions.dg0_space(msh)
     w = ufl.TestFunction(Q)
     e = fields.u_exact - u
     dx = ufl.dx(metadata={"quadrature_degree": 8})
@@ -259,7 +260,7 @@ def penalty_limit(case, cells, overrides, eps_values):
     quantities_S = nc.solution_quantities(u_S, fields)
     rows, previous = [], None
     for eps in sorted(eps_values, reverse=True):
-        pb = nc.load_problem(case, base + [f"contact.c_n={1.0 / eps!r}"])
+        pb = nc.load_problem(case, base + [f"contact.c_n={float(1.0 / eps)!r}"])
         t = time.perf_counter()
         solution = nc.solve(pb, domain, initial=previous)
         fields_e, u_e, stats = solution.fields, solution.u, solution.stats
@@ -329,7 +330,7 @@ def gather_p1(u):
     values = u.x.array.reshape(-1, 2)[:n]
     start = imap.local_range[0]
     n_cells = V.mesh.topology.index_map(2).size_local
-    cells = imap.local_to_global(V.dofmap.list.array.reshape(-1, 3)[:n_cells].ravel()).reshape(-1, 3)
+    cells = imap.local_to_global(versions.cell_dofs(V.dofmap)[:n_cells].ravel()).reshape(-1, 3)
     parts = COMM.gather((start, x, values, cells), root=0)
     if COMM.rank != 0:
         return None

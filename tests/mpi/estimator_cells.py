@@ -10,8 +10,8 @@ import numpy as np
 from mpi4py import MPI
 
 from dolfinx import fem, mesh as dmesh
-from dolfinx.cpp.mesh import entities_to_geometry
 import nc_dolfinx as nc
+from nc_dolfinx import dolfinx_versions as versions
 from nc_dolfinx.estimator import varying_traction_groups
 from nc_dolfinx.estimator_geometry import facet_layers
 
@@ -34,7 +34,7 @@ comm = MPI.COMM_WORLD
 problem = nc.Problem.from_dict(PROBLEM, "parallel box")
 domain = nc.build_domain(problem, comm)
 fields = nc.bind(problem, domain)
-u = fem.Function(fem.VectorFunctionSpace(domain.mesh, ("CG", 1)))
+u = fem.Function(versions.p1_space(domain.mesh, (3,)))
 u.interpolate(displacement)
 est = nc.estimate(u, fields)
 
@@ -44,7 +44,7 @@ n = msh.topology.index_map(3).size_local
 tags = domain.facet_tags
 contact = tags.indices[np.isin(tags.values, fields.ids["contact"])]
 contact = contact[contact < msh.topology.index_map(2).size_local]
-nodes = entities_to_geometry(msh._mesh, 2, contact, False)
+nodes = versions.entities_to_geometry(msh, 2, contact)
 X = msh.geometry.x[nodes.ravel()]
 phi = (-displacement(X.T)[2] - (0.005 + 0.01 * X[:, 0])).reshape(-1, 3)
 kinked = comm.allreduce(int(np.count_nonzero((phi.max(axis=1) > 0) & (phi.min(axis=1) < 0))), MPI.SUM)

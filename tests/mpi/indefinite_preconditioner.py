@@ -12,6 +12,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import nc_dolfinx as nc
+from nc_dolfinx import dolfinx_versions as versions
 from square import square_problem
 
 
@@ -45,7 +46,7 @@ def run(options):
         return {"error": str(err)}
     s = solution.stats
     return {"newton": s.newton_iterations, "krylov": s.linear_iterations, "recoveries": s.recoveries,
-            "reason": s.converged_reason, "norm": solution.u.vector.norm()}
+            "reason": s.converged_reason, "norm": versions.petsc_vec(solution.u).norm()}
 
 
 indefinite = {"pc_type": "python", "pc_python_type": "__main__.IndefiniteAMG", "snes_max_it": 20}

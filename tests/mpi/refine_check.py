@@ -20,6 +20,7 @@ from mpi4py import MPI
 from dolfinx import fem, mesh as dmesh
 
 from nc_dolfinx import meshes, refinement
+from nc_dolfinx import dolfinx_versions as versions
 
 comm = MPI.COMM_WORLD
 
@@ -118,7 +119,7 @@ def transfer_error(parent, child):
         for bs in (gdim, gdim + 1):
             coefficients = np.arange(1.0, 1 + bs * (gdim + 1)).reshape(bs, gdim + 1) % 5 - 2
             linear = lambda x: coefficients[:, :1] + coefficients[:, 1:] @ x[:gdim]  # noqa: E731
-            Vp, Vc = (fem.VectorFunctionSpace(d.mesh, ("CG", 1), dim=bs) for d in (parent, child))
+            Vp, Vc = (versions.p1_space(d.mesh, (bs,)) for d in (parent, child))
             up, exact = fem.Function(Vp), fem.Function(Vc)
             up.interpolate(linear)
             exact.interpolate(linear)

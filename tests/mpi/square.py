@@ -5,10 +5,10 @@ import numpy as np
 import ufl
 from mpi4py import MPI
 
-from dolfinx.fem import petsc as fem_petsc
+
 
 import nc_dolfinx as nc
-from nc_dolfinx import forms
+from nc_dolfinx import dolfinx_versions as versions, forms
 
 
 def square_problem(c_n, m_n, cells=24, gap=0.0, preset=None):
@@ -33,7 +33,7 @@ def bilateral_solution(solution):
     a = ufl.inner(fields.sigma(u), ufl.sym(ufl.grad(v))) * ufl.dx + fields.c_n * ufl.dot(u, n) * ufl.dot(v, n) * dC
     L = ufl.inner(fields.f, v) * ufl.dx + fields.c_n * fields.gap * ufl.dot(v, n) * dC
     options = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
-    return fem_petsc.LinearProblem(a, L, bcs=fields.boundary_conditions(V), petsc_options=options).solve()
+    return versions.solve_linear_problem(a, L, fields.boundary_conditions(V), options)
 
 
 def max_difference(a, b):
