@@ -34,8 +34,7 @@ def _version(text):
 
 
 VERSION = _version(dolfinx.__version__)
-V05 = VERSION < (0, 6)        # Debian bookworm: 0.5.2 (with Debian's patch of upstream PR 2500)
-V09 = (0, 9) <= VERSION < (0, 10)  # Debian trixie
+V05 = VERSION < (0, 6)        # Debian bookworm: 0.5.2 (Debian's patch of upstream PR 2500: msh._mesh)
 NEW = VERSION >= (0, 9)       # 0.9 and later: the API of functionspace, basix.ufl, petsc_vec, ...
 V011 = VERSION >= (0, 10)     # 0.10/0.11 and later: io.gmsh, identity partitioner in refine, ...
 
@@ -68,11 +67,6 @@ if NEW:
 
 
 # --- meshes ------------------------------------------------------------------------------------
-
-def cpp_mesh(msh):
-    """The C++ mesh behind a Python ``Mesh`` (0.5.2 only: Debian's patch names it ``_mesh``)."""
-    return msh._mesh if V05 else msh._cpp_object
-
 
 def create_rectangle(comm, corners, cells, diagonal):
     """A ghosted (shared-facet) triangle mesh of a rectangle; ``diagonal`` a ``DiagonalType`` name."""
