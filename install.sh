@@ -11,7 +11,7 @@
 #   sh install.sh --paraview   also ParaView (pvpython) and Xvfb, to render the README picture
 set -eu
 PACKAGES="python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-gmsh python3-h5py
-python3-numpy python3-scipy python3-sympy python3-matplotlib python3-pytest openmpi-bin gcc python3-dev
+python3-numpy python3-scipy python3-sympy python3-matplotlib python3-pytest python3-hypothesis openmpi-bin gcc python3-dev
 libopenblas0-serial python3-venv python3-setuptools"
 if [ "${1:-}" = "--paraview" ]; then
     PACKAGES="$PACKAGES paraview python3-paraview xvfb xauth"

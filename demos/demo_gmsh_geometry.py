@@ -61,7 +61,11 @@ out_dir = output_directory()
 # *Physical groups* give the parts the names the problem refers to: the curves `left` (clamped, Γ_D),
 # `bottom` (Γ_C), `top` (loaded, Γ_N), `right` and `hole` (traction free), and the surfaces `plate` and
 # `inclusion`, the two materials. The circle between plate and inclusion is inside the body and needs no
-# group. Only rank 0 builds the model; `from_gmsh_model` distributes the mesh over the ranks.
+# group. Only rank 0 builds the model; `from_gmsh_model` distributes the mesh over the ranks. The work of
+# rank 0 goes to it as a function, `build`, which it runs on rank 0 between `gmsh.initialize()` and
+# `gmsh.finalize()`: if `build` raises, every rank stops with the same `InputError` ("the gmsh model built
+# on rank 0 failed: …"), where a script that built the model itself would leave the other ranks waiting
+# in `from_gmsh_model` for rank 0, which never comes.
 
 # %%
 hole_centre, inclusion_centre, radius = (1.4, 0.55), (0.6, 0.45), 0.2
@@ -96,15 +100,15 @@ def plate_model():
     gmsh.model.mesh.generate(2)
 
 
-if comm.rank == 0:
-    gmsh.initialize()
+def build(gmsh):
+    """Rank 0's work: the model, meshed, also saved as a file (for the problem's [mesh] below)."""
     gmsh.option.setNumber("General.Terminal", 0)  # quiet
     gmsh.model.add("plate")
     plate_model()
-    gmsh.write(str(out_dir / "plate.msh"))  # the same mesh as a file, for the problem's [mesh] below
-domain = nc.from_gmsh_model(comm, rank=0)
-if comm.rank == 0:
-    gmsh.finalize()
+    gmsh.write(str(out_dir / "plate.msh"))
+
+
+domain = nc.from_gmsh_model(comm, build=build, rank=0)
 say(f"{domain.num_cells()} triangles; boundary groups {domain.facet_groups}, regions {domain.cell_groups}")
 
 # %% [markdown]

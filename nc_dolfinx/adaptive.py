@@ -9,6 +9,7 @@ the dof budget or the tolerance on η (absolute, or relative to η on level 0), 
 says which (``stop_reason``).
 """
 import logging
+import math
 import time
 from dataclasses import dataclass, field, fields as dataclass_fields
 
@@ -219,10 +220,22 @@ def _row(number, domain, solution, est):
            "recoveries": stats.recoveries}
     row.update(quantities.solution_quantities(solution.u, solution.fields))
     row.update(quantities.errors(solution.u, solution.fields))
-    if "h1_error" in row:
-        row["effectivity"] = est.totals["eta"] / row["h1_error"]
-        row["effectivity_augmented"] = est.totals["eta"] / row["augmented_error"]
+    if "h1_error" in row:  # (no index when u_h is exact: a linear u, say)
+        row["effectivity"] = est.totals["eta"] / row["h1_error"] if row["h1_error"] > 0 else None
+        row["effectivity_augmented"] = (est.totals["eta"] / row["augmented_error"] if row["augmented_error"] > 0
+                                        else None)
+    _check_finite(row)
     return row
+
+
+def _check_finite(row):
+    """A level whose numbers overflowed is an error naming them, never a result (every rank holds the
+    same row: the values are global)."""
+    bad = [key for key, value in row.items() if isinstance(value, float) and not math.isfinite(value)]
+    if bad:
+        shown = ", ".join(f"{key} = {row[key]}" for key in bad[:4])
+        raise InputError(f"{shown}: the problem's numbers overflow double precision in u_h or the estimator "
+                         "(check the magnitudes of loads.f, loads.g, material.E and contact.c_n)")
 
 
 def _stop_reason(settings, number, dofs, eta, eta0):
@@ -249,5 +262,6 @@ def progress_line(row):
             f"({row['linear_iterations']} linear) its, solve {row['time_solve']:.2f} s, "
             f"eta = {row['eta']:.4e}")
     if "h1_error" in row:
-        text += f", |u-u_h|_1 = {row['h1_error']:.4e}, eff = {row['effectivity']:.3f}"
+        text += f", |u-u_h|_1 = {row['h1_error']:.4e}"
+        text += f", eff = {row['effectivity']:.3f}" if row["effectivity"] is not None else ""
     return text

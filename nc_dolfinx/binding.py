@@ -17,9 +17,9 @@ from petsc4py import PETSc
 from dolfinx import fem
 
 from . import dolfinx_versions as versions, meshes, physics
-from .errors import InputError
-from .expressions import to_ufl, to_ufl_vector
-from .problem import check_exponent, check_vector_sizes
+from .errors import InputError, brief_text
+from .expressions import to_ufl, to_ufl_vector, values_at
+from .problem import check_exponent, check_file, check_reference, check_vector_sizes
 from .schema import ROLES
 
 
@@ -42,6 +42,7 @@ class Fields:
     ds: object
     symmetry_axes: dict = field(default_factory=dict)  # symmetry group id -> coordinate axis of its normal
     notes: list = field(default_factory=list)          # remarks for the summary (not errors)
+    warnings: list = field(default_factory=list)       # what the user may not have meant (see bind)
 
     @property
     def dim(self):
@@ -73,11 +74,14 @@ class Fields:
 def bind(problem, domain):
     """The problem's data on ``domain`` as :class:`Fields`: the coefficients of (7) and the measures of
     Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, the dimension of every
-    vector, m_n in 3D, and the signs of c_n and g_0 on Γ_C; raises :class:`InputError` for each."""
+    vector, m_n in 3D, the reference's dimension, and that every expression is finite where it is used
+    (c_n and g_0 also >= 0 on Γ_C); raises :class:`InputError` for each. Boundary groups of the mesh in no
+    role are traction-free: ``Fields.warnings`` says so."""
     msh, params, values = domain.mesh, problem.parameters, problem.values
     dim = msh.geometry.dim
     check_vector_sizes(values, dim)
     check_exponent(values["contact"]["m_n"], dim)
+    check_reference(values, dim)
     ids = _role_ids(problem, domain)
     counts = _facet_counts(domain)
     for role, symbol in (("dirichlet", "Γ_D"), ("contact", "Γ_C")):
@@ -101,8 +105,14 @@ def bind(problem, domain):
                     u_exact, ids, ds)
     fields.symmetry_axes = {i: _symmetry_axis(domain, i, _name(domain, i)) for i in ids["symmetry"]
                             if counts.get(i, 0)}
-    for name in ("c_n", "gap"):
-        _check_on_contact(fields, name, getattr(fields, name))
+    unassigned = [f"'{_name(domain, i)}'" for i in free if i != meshes.UNTAGGED]
+    if unassigned:
+        fields.warnings.append(
+            f"boundary group{'s' if len(unassigned) > 1 else ''} {', '.join(unassigned)} of the mesh "
+            f"{'are' if len(unassigned) > 1 else 'is'} in no role (mesh.dirichlet, neumann, contact, symmetry): "
+            "traction-free, i.e. Γ_N with g = 0 (list {} in mesh.neumann to say so; a cut of a symmetric "
+            "model belongs in mesh.symmetry)".format('them' if len(unassigned) > 1 else 'it'))
+    _check_finite_on_mesh(problem, domain, ids, listed_neumann)
     if dim == 3 and contact["m_n"] > 2:
         fields.notes.append(f"m_n = {contact['m_n']:g} > 2 in 3D: σ_n(u) ∈ L²(Γ_C), used by the paper's "
                             "proofs, is guaranteed only for m_n <= 2 (H^1/2(Γ_C) ⊂ L⁴); the law is well "
@@ -214,20 +224,46 @@ def _symmetry_axis(domain, group_id, name):
     return int(flat[0])
 
 
-def _check_on_contact(fields, name, expr):
-    """c_n and g_0 must be finite and >= 0 on Γ_C: checked at the P1 nodes of the contact facets."""
-    domain = fields.domain
-    V = versions.p1_space(domain.mesh)
-    values = fem.Function(V)
-    values.interpolate(fem.Expression(expr, versions.interpolation_points(V)))
+def _check_finite_on_mesh(problem, domain, ids, listed_neumann):
+    """Every expression of the problem finite where it is used (c_n and g_0 also >= 0 on Γ_C), at the
+    vertices of the mesh — the P1 nodes, where a finite value cannot come from an overflow elsewhere —
+    evaluated in double precision by :func:`expressions.values_at` (no form is compiled)."""
+    values, params = problem.values, problem.parameters
+    loads, contact = values["loads"], values["contact"]
+    everywhere = None  # all vertices
+    checks = [(f"exact.u[{i}]", text, everywhere) for i, text in enumerate(values["exact"]["u"] or [])]
+    checks += [(f"loads.f[{i}]", text, everywhere) for i, text in enumerate(loads["f"] or [])]
+    if isinstance(loads["g"], list):
+        checks += [(f"loads.g[{i}]", text, listed_neumann) for i, text in enumerate(loads["g"])]
+    for group, vector in (loads["g"] or {}).items() if isinstance(loads["g"], dict) else ():
+        group_id = domain.facet_groups.get(group, int(group) if group.isdigit() else None)
+        checks += [(f"loads.g.{group}[{i}]", text, (group_id,)) for i, text in enumerate(vector)]
+    checks += [(f"contact.{name}", contact[name], ids["contact"]) for name in ("c_n", "gap")]
+    for key, text, groups in checks:
+        x = _vertices(domain, groups)
+        value = values_at(text, x, params)
+        bad = np.flatnonzero(~np.isfinite(value) | (value < 0 if key.startswith("contact.") else False))
+        where = domain.comm.allgather(None if not len(bad) else (value[bad[0]], x[bad[0]]))
+        first = next((w for w in where if w is not None), None)
+        if first is not None:
+            number, point = first
+            at = ", ".join(f"{c:.4g}" for c in point)
+            if np.isfinite(number):
+                raise InputError(f"{key} must be >= 0 on Γ_C, but '{brief_text(text)}' = {number:.4g} at ({at})")
+            raise InputError(f"{key} = '{brief_text(text)}' is not finite on the mesh: {number} at ({at}) (an "
+                             "overflow, or a division by zero?)")
+
+
+def _vertices(domain, groups):
+    """Coordinates of the vertices of the owned facets in ``groups`` (None: every vertex of the mesh)."""
+    msh = domain.mesh
+    gdim = msh.geometry.dim
+    if groups is None:
+        return msh.geometry.x[:, :gdim]
     tags = domain.facet_tags
-    facets = tags.indices[np.isin(tags.values, fields.ids["contact"])]
-    dofs = fem.locate_dofs_topological(V, domain.mesh.topology.dim - 1, facets)
-    local = values.x.array[dofs]
-    if domain.comm.allreduce(bool(np.any(~np.isfinite(local))), MPI.LOR):
-        raise InputError(f"contact.{name} is not finite everywhere on Γ_C (division by zero or overflow?)")
-    if domain.comm.allreduce(float(local.min()) if len(local) else np.inf, MPI.MIN) < 0:
-        raise InputError(f"contact.{name} must be >= 0 on Γ_C, but it is negative somewhere on it")
+    facets = tags.indices[np.isin(tags.values, groups)]
+    nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
+    return msh.geometry.x[np.unique(nodes.ravel()), :gdim]
 
 
 def build_domain(problem, comm):
@@ -243,6 +279,5 @@ def build_domain(problem, comm):
         raise InputError("the problem names no mesh (mesh.file, mesh.rectangle or mesh.box): build a Domain "
                          "(nc.from_gmsh_model, nc.from_dolfinx, …) and pass it to solve/adapt")
     path = Path(spec["file"])
-    if not path.is_file():
-        raise InputError(f"mesh file '{path}' not found")
+    check_file(path, "mesh file")
     return meshes.from_gmsh(comm, path)

@@ -1,8 +1,8 @@
 """Built-in cases: problem files shipped in ``nc_dolfinx/cases/``, found by name."""
 from pathlib import Path
 
-from .errors import InputError
-from .problem import read_toml
+from .errors import InputError, brief_text
+from .problem import check_file, read_toml
 
 CASES_DIR = Path(__file__).parent / "cases"
 
@@ -27,16 +27,22 @@ def case_path(name):
 def resolve(case_or_file):
     """Path of a built-in case name or of a user's problem file."""
     path = Path(case_or_file)
-    if path.suffix == ".toml" or path.exists() or len(path.parts) > 1:
-        if not path.is_file():
-            raise InputError(f"problem file '{case_or_file}' not found")
+    if path.suffix == ".toml" or len(path.parts) > 1 or _exists(path):
+        check_file(path, "problem file")
         return path
     builtin = CASES_DIR / f"{case_or_file}.toml"
     return builtin if builtin.is_file() else _unknown(case_or_file)
 
 
+def _exists(path):
+    try:
+        return path.exists()
+    except OSError:  # a name too long: it is no case name either
+        return True
+
+
 def _unknown(name):
     import difflib
     close = difflib.get_close_matches(str(name), case_names(), n=1)
-    raise InputError(f"unknown case '{name}'" + (f" (did you mean '{close[0]}'?)" if close else "")
+    raise InputError(f"unknown case '{brief_text(name)}'" + (f" (did you mean '{close[0]}'?)" if close else "")
                      + f" (built-in cases: {', '.join(case_names())}; or give a .toml problem file)")

@@ -19,7 +19,7 @@ from mpi4py import MPI
 import nc_dolfinx as nc
 
 from . import interrupt
-from .errors import InputError
+from .errors import InputError, brief_text
 
 EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 3, 130
 
@@ -88,12 +88,12 @@ def petsc_options(tokens, ours=()):
     while i < len(tokens):
         key = tokens[i]
         if not key.startswith("-") or len(key) < 2:
-            raise InputError(f"unexpected argument '{key}' (PETSc options look like -ksp_type cg)")
+            raise InputError(f"unexpected argument '{brief_text(key)}' (PETSc options look like -ksp_type cg)")
         name = key.lstrip("-")
         if key.startswith("--") or name.replace("_", "-") in ours:
             close = difflib.get_close_matches("--" + name.replace("_", "-"), [f"--{o}" for o in ours], n=1)
             hint = f" (did you mean {close[0]}?)" if close else " (see --help)"
-            raise InputError(f"unknown option '{key}'{hint}")
+            raise InputError(f"unknown option '{brief_text(key)}'{hint}")
         value = None
         if i + 1 < len(tokens) and (not tokens[i + 1].startswith("-") or _is_number(tokens[i + 1])):
             value, i = tokens[i + 1], i + 1

@@ -428,6 +428,35 @@ def _petsc_int_bytes():
     return np.dtype(PETSc.IntType).itemsize
 
 
+def petsc_error_message(err):
+    """PETSc's own message of a ``PETSc.Error`` (e.g. "Unable to find requested KSP type bogus"). petsc4py
+    3.18, 3.22 and 3.25 alike put PETSc's traceback into ``str(err)``, "error code 86" and then one line
+    per call level, "[rank] ..."; the last line is the message of the call that failed."""
+    lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+    text = lines[-1] if lines else ""
+    if text.startswith("[") and "]" in text:
+        text = text[text.index("]") + 1:].strip()
+    return text or f"PETSc error code {getattr(err, 'ierr', '?')}"
+
+
+def hypre_types():
+    """The values of ``-pc_hypre_type`` that PETSc's hypre interface accepts: PETSc 3.22 and 3.25 (0.9,
+    0.11) added hypre's ILU to those of 3.18 (0.5.2's), as their error messages list them."""
+    types = ("boomeramg", "ams", "ads", "euclid", "pilut", "parasails")
+    return types if V05 else types + ("ilu",)
+
+
+def line_search_types():
+    """The names of SNES line searches, for messages: petsc4py 3.25 (0.11's) lists them
+    (``PETSc.SNESLineSearch.Type``; PETSc 3.25 also still takes l2, the old name of secant); 3.18 and 3.22
+    have no such list, and PETSc 3.18 and 3.22 register these."""
+    from petsc4py import PETSc
+    if hasattr(PETSc, "SNESLineSearch"):
+        listed = PETSc.SNESLineSearch.Type
+        return sorted({v for k, v in vars(listed).items() if not k.startswith("_") and isinstance(v, str)} | {"l2"})
+    return sorted(("basic", "bt", "cp", "l2", "ncglinear", "nleqerr", "none", "shell"))
+
+
 def entities_built(msh, dim):
     """Whether the mesh entities of dimension ``dim`` have been computed (0.5.2's ``index_map`` returns
     None for them, 0.9 and later raise)."""

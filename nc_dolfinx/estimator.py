@@ -179,7 +179,8 @@ def _cell_terms(fields, degree):
     all (η_1 = 0; h_K from the vertices)."""
     f, msh = fields.f, fields.domain.mesh
     gdim, constant = msh.geometry.dim, _constant(f)
-    f_squared = float(np.sum(_value(f) ** 2)) if constant else None
+    with np.errstate(over="ignore"):  # an f beyond double precision: inf, refused with the level's row
+        f_squared = float(np.sum(_value(f) ** 2)) if constant else None
     if f_squared == 0.0:
         return cell_diameters(msh), np.zeros(msh.topology.index_map(msh.topology.dim).size_local), None
     Qv = cell_space(msh, 2 if constant else gdim + 3)

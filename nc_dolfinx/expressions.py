@@ -22,7 +22,7 @@ import numpy as np
 import ufl
 
 from . import dolfinx_versions as versions
-from .errors import InputError
+from .errors import InputError, brief, brief_text
 
 COORDINATES = ("x", "y", "z")
 
@@ -41,20 +41,48 @@ _FLOAT_FUNCTIONS = {
     "sqrt": math.sqrt, "abs": abs, "max": max, "min": min, "pos": lambda a: max(a, 0.0),
 }
 FUNCTIONS = tuple(sorted(_FLOAT_FUNCTIONS))
+_ARRAY_FUNCTIONS = {
+    "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
+    "abs": np.abs, "max": np.maximum, "min": np.minimum, "pos": lambda a: np.maximum(a, 0.0),
+}
 _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
            ast.Div: operator.truediv, ast.Pow: operator.pow}
 _UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+
+
+MAX_LENGTH = 20000  # characters of an expression
+MAX_DEPTH = 500     # nesting of its tree (a sum of n terms nests n deep): UFL and FFCx recurse over it
 
 
 def _parse(text):
     if isinstance(text, (int, float)) and not isinstance(text, bool):
         return ast.Expression(body=ast.Constant(float(text)))
     if not isinstance(text, str):
-        raise InputError(f"malformed expression {text!r}: expected a string or a number")
+        raise InputError(f"malformed expression {brief(text)}: expected a string or a number")
+    if len(text) > MAX_LENGTH:
+        raise InputError(f"expression '{brief_text(text)}' is longer than {MAX_LENGTH} characters")
+    if not text.isprintable():
+        raise InputError(f"expression '{brief_text(text)}' contains a control character")
     try:
-        return ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
-        raise InputError(f"malformed expression '{text}'") from None
+        tree = ast.parse(text.strip(), mode="eval")
+    except (SyntaxError, ValueError):  # (ValueError: an integer of more digits than Python converts)
+        raise InputError(f"malformed expression '{brief_text(text)}'") from None
+    except (RecursionError, MemoryError):
+        raise InputError(f"expression '{brief_text(text)}' is nested more than {MAX_DEPTH} deep") from None
+    if _depth(tree.body) > MAX_DEPTH:
+        raise InputError(f"expression '{brief_text(text)}' is nested more than {MAX_DEPTH} deep (a sum of "
+                         f"more than {MAX_DEPTH} terms, or as many signs or brackets): write it with parameters")
+    return tree
+
+
+def _depth(node):
+    """The depth of an expression's tree, found without recursion."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node) if isinstance(child, ast.expr))
+    return deepest
 
 
 def _check_node(node, text):
@@ -66,7 +94,7 @@ def _check_node(node, text):
         or (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
             and node.func.id in _FLOAT_FUNCTIONS and not node.keywords)
     if not allowed:
-        raise InputError(f"malformed expression '{text}': '{ast.unparse(node)}' is not allowed")
+        raise InputError(f"malformed expression '{brief_text(text)}': '{brief_text(ast.unparse(node))}' is not allowed")
 
 
 def _evaluate(node, names, functions, text):
@@ -76,7 +104,7 @@ def _evaluate(node, names, functions, text):
         return float(node.value)
     if isinstance(node, ast.Name):
         if node.id not in names:
-            raise InputError(f"unknown name '{node.id}' in expression '{text}'")
+            raise InputError(f"unknown name '{brief_text(node.id)}' in expression '{brief_text(text)}'")
         return names[node.id]
     if isinstance(node, ast.BinOp):
         return _BINARY[type(node.op)](_evaluate(node.left, names, functions, text),
@@ -110,10 +138,26 @@ def _float_of(node, names, text):
             raise ValueError("the value is complex")
         value = float(value)
     except (ValueError, ZeroDivisionError, OverflowError, TypeError) as err:
-        raise InputError(f"cannot evaluate expression '{text}': {err}") from None
+        raise InputError(f"cannot evaluate expression '{brief_text(text)}': {err}") from None
     if not math.isfinite(value):
-        raise InputError(f"expression '{text}' is not a finite number ({value})")
+        raise InputError(f"expression '{brief_text(text)}' is not a finite number ({value})")
     return value
+
+
+def values_at(text, points, parameters=None):
+    """The expression's values at ``points`` (n, gdim) as an array of n floats, computed in double
+    precision as the forms will: inf or NaN where it overflows or divides by zero (no error raised). The
+    same walker as :func:`to_ufl`, with NumPy's functions: no form is compiled."""
+    points = np.asarray(points, dtype=float)
+    names = {"pi": math.pi, **(parameters or {}),
+             **{name: points[:, i] for i, name in enumerate(COORDINATES[:points.shape[1]])}}
+    with np.errstate(all="ignore"):
+        try:
+            value = _evaluate(_parse(text).body, names, _ARRAY_FUNCTIONS, text)
+            value = np.asarray(value, dtype=float)
+        except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+            value = np.asarray(np.nan)
+    return np.broadcast_to(value, (len(points),))
 
 
 def check(text, parameters=None, coordinates=COORDINATES):
@@ -126,7 +170,7 @@ def check(text, parameters=None, coordinates=COORDINATES):
     known = set(coordinates) | {"pi"} | set(parameters or {})
     unknown = sorted(names_in(text) - known)
     if unknown:
-        raise InputError(f"unknown name '{unknown[0]}' in expression '{text}'")
+        raise InputError(f"unknown name '{brief_text(unknown[0])}' in expression '{brief_text(text)}'")
     _fold_constant_subtrees(tree.body, parameters or {}, text)
 
 
@@ -153,7 +197,7 @@ class _ConstantFolder:
         _check_node(node, self.text)
         if isinstance(node, ast.Name):
             if node.id not in self.coordinates:
-                raise InputError(f"unknown name '{node.id}' in expression '{self.text}' "
+                raise InputError(f"unknown name '{brief_text(node.id)}' in expression '{brief_text(self.text)}' "
                                  f"(the coordinates of this mesh are {', '.join(self.coordinates)})")
             return self.coordinates[node.id]
         if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow) and _coordinate_free(node.right):
@@ -180,7 +224,7 @@ def to_ufl(text, mesh, parameters=None):
     try:
         return _ConstantFolder(coordinates, parameters or {}, text, fold).visit(_parse(text).body)
     except (*versions.UFL_ERRORS, TypeError, ValueError, ZeroDivisionError, OverflowError) as err:
-        raise InputError(f"cannot evaluate expression '{text}': {err}") from None
+        raise InputError(f"cannot evaluate expression '{brief_text(text)}': {err}") from None
 
 
 def to_ufl_vector(texts, mesh, parameters=None, what="vector"):

@@ -6,42 +6,156 @@ as a string. The model is checked on the rank that holds it for everything DOLFI
 assert on or crash over; an error is broadcast and raised on every rank together, so no rank is left
 waiting for one that failed.
 """
+import inspect
+import os
+import shutil
+import stat
+import tempfile
+
 import gmsh
 import numpy as np
 
 from . import dolfinx_versions as versions
-from .errors import InputError
+from .errors import InputError, brief_text
 from .meshes import SUPPORTED, from_dolfinx
 
 ENTITY = {0: "point", 1: "curve", 2: "surface", 3: "volume"}
 FACETS_OF_CELLS = {2: "edges", 3: "faces"}
+MSH_SIGNATURE = b"$MeshFormat"  # the first bytes of every MSH 2 and 4 file, ASCII and binary
+
+
+def _file(path):
+    """A file's name for a message: in full (control characters escaped) unless absurdly long."""
+    return brief_text(path, 300)
 
 
 def from_gmsh(comm, path):
-    """Read a gmsh ``.msh`` file with physical groups (names become group names)."""
+    """Read a gmsh ``.msh`` file with physical groups (names become group names).
+
+    gmsh reads whatever it does not recognise as a *script* (a .geo file), and a script can run commands
+    (``SystemCall``, ``Shell``); so only a file that gmsh reads as a mesh is handed to it. gmsh's
+    ``MergeFile`` (behind ``gmsh.open`` and ``gmsh.merge``, the same in gmsh 4.8, 4.13 and 4.15, bookworm to
+    sid) picks a reader by the name's extension first (``.gz``: a shell ``gunzip``; ``.stl``, ``.step``, …;
+    ONELAB solvers' extensions), then, for any other extension, ``.msh`` included, by the first line: one
+    that begins with the 11 bytes ``$MeshFormat`` goes to ``GModel::readMSH`` (and the post-processing
+    reader of MSH data), whose MSH 2/3/4 parsers never call the script parser; everything else goes to
+    ``GModel::readGEO``, the script parser. Hence the check, on the rank that reads, before gmsh sees the
+    file: the name ends in ``.msh`` and the file's first bytes are exactly ``$MeshFormat`` (gmsh compares
+    them at the very start: a BOM or whitespace before them makes the file a script). After reading it,
+    ``MergeFile`` also merges ``<file>.opt`` if that exists — as a script (gmsh's GUI saves display options
+    there); so gmsh reads the file through a link in a private temporary folder, where there is none.
+    A missing, unreadable or special file (a directory, a FIFO) is refused too, without waiting on it."""
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     try:
         error = None
         if comm.rank == 0:
-            try:
-                gmsh.open(str(path))
-            except Exception as err:  # gmsh raises plain Exceptions for unreadable files
-                error = f"cannot read mesh file '{path}': {err}"
+            error = _not_a_mesh_file(path)
+            if error is None:
+                error = _open_mesh_file(path)
         _raise_everywhere(comm, error, 0)
-        return _to_domain(comm, gmsh.model, 0, f"mesh file '{path}'")
+        return _to_domain(comm, gmsh.model, 0, f"mesh file '{_file(path)}'")
     finally:
         gmsh.finalize()
 
 
-def from_gmsh_model(comm, model=None, rank=0):
+def _not_a_mesh_file(path):
+    """Why gmsh would not read ``path`` as a mesh (one line naming it), or None (see :func:`from_gmsh`)."""
+    name = f"mesh file '{_file(path)}'"
+    if not str(path).lower().endswith(".msh"):
+        return f"{name} is not a gmsh .msh file (its name does not end in .msh)"
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # (a FIFO: no wait for a writer)
+    except FileNotFoundError:
+        return f"{name} not found"
+    except (OSError, ValueError) as err:  # permission, a name too long, a NUL in it, ...
+        return f"cannot read {name}: {getattr(err, 'strerror', None) or err}"
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            return f"{name} is a directory, not a file"
+        if not stat.S_ISREG(mode):
+            return f"{name} is not a regular file"
+        head = os.read(fd, len(MSH_SIGNATURE))
+    except OSError as err:
+        return f"cannot read {name}: {err.strerror or err}"
+    finally:
+        os.close(fd)
+    if head != MSH_SIGNATURE:
+        why = "it is empty" if not head else "it does not start with $MeshFormat"
+        return f"{name} is not a gmsh .msh file ({why})"
+    return None
+
+
+def _open_mesh_file(path):
+    """``gmsh.open`` of the checked file through a link in a new private folder (no ``.opt`` beside it);
+    None, or gmsh's error as one line."""
+    folder = tempfile.mkdtemp(prefix="nc_dolfinx_msh_")
+    try:
+        link = os.path.join(folder, os.path.basename(str(path)))
+        try:
+            os.symlink(os.path.abspath(path), link)
+        except OSError:  # (a file system without symbolic links)
+            shutil.copyfile(path, link)
+        try:
+            gmsh.open(link)
+        except Exception as err:  # gmsh raises plain Exceptions for unreadable files
+            text = str(err).replace(link, str(path))
+            return f"cannot read mesh file '{_file(path)}': {brief_text(text, 300)}"
+        return None
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def from_gmsh_model(comm, model=None, rank=0, build=None):
     """Domain of a gmsh model (default ``gmsh.model``) meshed in memory on ``rank`` by a user script.
-    Only ``rank`` needs the model; gmsh stays initialised (the caller finalises it)."""
+    Only ``rank`` needs the model.
+
+    ``build``: the one-rank work as a callable, ``build(gmsh)`` or ``build()``, which makes and meshes the
+    model; it runs on ``rank`` only, between ``gmsh.initialize()`` and ``gmsh.finalize()`` (done here), and
+    an exception it raises is an InputError on every rank together ("the gmsh model built on rank 0
+    failed: ValueError: ..."), instead of a job whose other ranks wait for ``rank`` forever in the
+    collective call it never reaches. Without ``build`` the caller builds the model and initialises and
+    finalises gmsh (an exception before this call then stops one rank only: use ``build`` under MPI)."""
+    if build is not None:
+        return _built_model(comm, model, rank, build)
     model = gmsh.model if model is None else model
     where = None
     if comm.rank == rank:
         where = f"gmsh model '{model.getCurrent()}'" if model.getCurrent() else "gmsh model"
     return _to_domain(comm, model, rank, where)
+
+
+def _built_model(comm, model, rank, build):
+    """from_gmsh_model with ``build`` (see there)."""
+    if not callable(build):
+        raise TypeError(f"build must be a callable, build(gmsh) or build(), got {type(build).__name__}")
+    if not 0 <= rank < comm.size:
+        raise ValueError(f"rank {rank} is not a rank of the communicator (size {comm.size})")
+    error = None
+    if comm.rank == rank:
+        gmsh.initialize()
+        try:
+            try:
+                build(gmsh) if _takes_an_argument(build) else build()
+            except Exception as err:
+                error = f"the gmsh model built on rank {rank} failed: {type(err).__name__}: {brief_text(err, 300)}"
+            _raise_everywhere(comm, error, rank)
+            return from_gmsh_model(comm, model, rank)
+        finally:
+            gmsh.finalize()
+    _raise_everywhere(comm, error, rank)
+    return from_gmsh_model(comm, model, rank)
+
+
+def _takes_an_argument(function):
+    """Whether ``function`` takes one positional argument (build(gmsh)) rather than none."""
+    try:
+        parameters = inspect.signature(function).parameters.values()
+    except (TypeError, ValueError):  # (a builtin without a signature: called with gmsh)
+        return True
+    positional = [p for p in parameters if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    return bool(positional) or any(p.kind == p.VAR_POSITIONAL for p in parameters)
 
 
 def _raise_everywhere(comm, error, root):

@@ -161,12 +161,18 @@ def gather_boundary(msh, facet_tags):
 # --- gmsh (in nc_dolfinx.gmsh_io, which builds on from_dolfinx) --------------------------------
 
 def from_gmsh(comm, path):
-    """Read a gmsh ``.msh`` file (2D triangles or 3D tetrahedra) with its physical groups."""
+    """Read a gmsh ``.msh`` file (2D triangles or 3D tetrahedra) with its physical groups. Only a file
+    whose name ends in ``.msh`` and that starts with ``$MeshFormat`` (MSH 2 to 4, ASCII or binary) reaches
+    gmsh, which would run anything else as a script; an ``.opt`` file beside it is not read."""
     from .gmsh_io import from_gmsh as read
     return read(comm, path)
 
 
-def from_gmsh_model(comm, model=None, rank=0):
-    """Domain of a gmsh model built in memory on ``rank`` (default: ``gmsh.model``)."""
+def from_gmsh_model(comm, model=None, rank=0, build=None):
+    """Domain of a gmsh model built in memory on ``rank`` (default: ``gmsh.model``). Under MPI give the
+    one-rank work as ``build``, a callable ``build(gmsh)`` (or ``build()``) that makes and meshes the model:
+    it runs on ``rank`` only, inside ``gmsh.initialize()``/``gmsh.finalize()``, and an exception it raises
+    becomes an InputError on every rank together ("the gmsh model built on rank 0 failed: …"), where a
+    script that builds the model itself and fails before this call leaves the other ranks waiting here."""
     from .gmsh_io import from_gmsh_model as convert
-    return convert(comm, model, rank)
+    return convert(comm, model, rank, build)

@@ -1,6 +1,8 @@
 """The convergence plot: η (and the H¹ error when known) against dofs."""
 import numpy as np
 
+TITLE = 80  # characters of the title shown
+
 
 def convergence_plot(path, histories, title):
     """η (and the H¹ error when known) against dofs, log–log, with a slope −1/2 guide."""
@@ -24,7 +26,7 @@ def convergence_plot(path, histories, title):
         ax.loglog(d, first["eta"] * (d / d[0]) ** -0.5, "k:", label="slope −1/2")
     ax.set_xlabel("degrees of freedom")
     ax.set_ylabel("estimator / error")
-    ax.set_title(title)
+    ax.set_title(title if len(title) <= TITLE else title[:TITLE - 1] + "…")  # (a long one overflows the raster)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import schema
-from .errors import InputError
+from .errors import InputError, brief, brief_path, brief_text
 
 
 @dataclass(frozen=True)
@@ -42,6 +42,7 @@ class Problem:
         """Validate a problem table (the keys of a problem file) and return the Problem.
 
         Relative mesh files are taken relative to ``source`` (the problem file), if given."""
+        schema.check_depth(data)
         raw = copy.deepcopy(data)
         values, given = schema.validate(raw)
         _check_consistency(values, given)
@@ -156,8 +157,14 @@ def _check_consistency(values, given):
     reference = values["reference"]
     if reference["hertz"] and reference["radius"] is None:
         raise InputError("reference.hertz needs reference.radius")
-    if reference["hertz"] == "sphere" and dim == 2 or reference["hertz"] == "line" and dim == 3:
-        raise InputError(f"reference.hertz = '{reference['hertz']}' does not fit a {dim}D mesh")
+    check_reference(values, dim)
+
+
+def check_reference(values, dim):
+    """Hertz's line contact is a 2D reference, the sphere's a 3D one."""
+    hertz = values["reference"]["hertz"]
+    if hertz == "sphere" and dim == 2 or hertz == "line" and dim == 3:
+        raise InputError(f"reference.hertz = '{hertz}' does not fit a {dim}D mesh (line: 2D, sphere: 3D)")
 
 
 def check_vector_sizes(values, dim):
@@ -181,12 +188,19 @@ def check_exponent(m_n, dim):
 
 # --- reading ------------------------------------------------------------------------------------------
 
+TOO_MANY_DIGITS = "an integer of more digits than any number a problem holds (no float has them)"
+
+
 def parse_value(text):
     """A ``--set`` value: TOML syntax when it parses (numbers, lists, tables, booleans), else a string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise InputError(f"--set value {brief(text)} is nested too deeply") from None
+    except ValueError:  # an integer of more digits than Python converts (4300)
+        raise InputError(f"--set value {brief(text)}: {TOO_MANY_DIGITS}") from None
 
 
 def set_dotted(table, dotted, value):
@@ -194,7 +208,7 @@ def set_dotted(table, dotted, value):
     for part in path:
         table = table.setdefault(part, {})
         if not isinstance(table, dict):
-            raise InputError(f"cannot set '{dotted}': '{part}' is not a table")
+            raise InputError(f"cannot set '{brief_text(dotted)}': '{brief_text(part)}' is not a table")
     table[last] = value
 
 
@@ -203,24 +217,40 @@ def apply_overrides(data, overrides):
     for item in overrides or []:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
-            raise InputError(f"--set expects KEY=VALUE, got '{item}'")
+            raise InputError(f"--set expects KEY=VALUE, got '{brief_text(item)}'")
         if "." not in key.strip() and key.strip() not in ("title", "description"):
-            raise InputError(f"--set {key.strip()}: give section.key, e.g. contact.m_n=2")
+            raise InputError(f"--set {brief_text(key.strip())}: give section.key, e.g. contact.m_n=2")
         set_dotted(data, key.strip(), parse_value(value.strip()))
     return data
 
 
 def read_toml(path):
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"problem file '{path}' not found")
+    shown = brief_path(path)
+    check_file(path, "problem file")
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as err:
-        raise InputError(f"malformed TOML in '{path}': {err}") from None
+        raise InputError(f"malformed TOML in '{shown}': {err}") from None
     except UnicodeDecodeError:
-        raise InputError(f"problem file '{path}' is not a text (UTF-8) TOML file") from None
+        raise InputError(f"problem file '{shown}' is not a text (UTF-8) TOML file") from None
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise InputError(f"problem file '{shown}' nests arrays or tables too deeply") from None
+    except ValueError:  # an integer of more digits than Python converts (4300)
+        raise InputError(f"problem file '{shown}': {TOO_MANY_DIGITS}") from None
+    except OSError as err:
+        raise InputError(f"cannot read problem file '{shown}': {err.strerror}") from None
+
+
+def check_file(path, what):
+    """Raise InputError unless ``path`` is a readable file (a name too long, a folder, a missing file)."""
+    try:
+        found = Path(path).is_file()
+    except OSError as err:  # ENAMETOOLONG, ELOOP, EACCES on a parent folder
+        raise InputError(f"{what} '{brief_path(path)}': {err.strerror}") from None
+    if not found:
+        raise InputError(f"{what} '{brief_path(path)}' not found")
 
 
 def load_problem(source, overrides=(), name=None):

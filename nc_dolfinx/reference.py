@@ -24,10 +24,13 @@ def hertz_sphere_contact(force, radius, E, nu):
 
 def compare_with_reference(problem, row):
     """Rows of (quantity, computed, reference) for the problem's [reference] table: Hertz's contact size and
-    peak pressure for the computed contact resultant (divided by ``reference.model_fraction``)."""
+    peak pressure for the computed contact resultant (divided by ``reference.model_fraction``); none when
+    that resultant is zero (the body does not touch the foundation)."""
     ref, material = problem.values["reference"], problem.values["material"]
     fraction = ref["model_fraction"]
     force = row["contact_resultant"] / fraction
+    if not force > 0:  # nothing touches the foundation (c_n = 0, a gap that never closes): no Hertz contact
+        return []
     if ref["hertz"] == "line":
         hertz = hertz_line_contact(force, ref["radius"], material["E"], material["nu"])
         return [("contact half-width", row["contact_length"] / 2, hertz["half_width"]),

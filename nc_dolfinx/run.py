@@ -48,6 +48,9 @@ class CaseRun:
             result = nc.adapt(self.problem, self.settings, comm=self.comm,
                                     petsc_options=self.cli_options, on_level=self.on_level)
             self.stop_reason, self.reason = result.stop_reason, self.stop_text(result)
+            if self.problem["reference.hertz"] and not nc.compare_with_reference(self.problem, result.history[-1]):
+                self.warn("reference.hertz: the contact force is zero (the body does not touch the foundation): "
+                          "there is no Hertz contact to compare with")
             histories = {self.settings.refine: result.history}
             if self.args.compare_uniform:
                 self.stage_name = "the uniform refinement for comparison"
@@ -81,6 +84,8 @@ class CaseRun:
             self.warn(text)
         self.petsc["in_effect"] = petsc_options.options_in_effect()
         self.diameter = body_diameter(level.u.function_space.mesh)
+        for text in level.fields.warnings:
+            self.warn(text)
 
     def check_doubtful(self, number, row):
         limit = DOUBTFUL_FRACTION * self.diameter

@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 
 from . import expressions
-from .errors import InputError
+from .errors import InputError, brief, brief_text
 
 REQUIRED = object()  # the default of a required key
 NONE = None          # the default of an optional key that is simply absent
@@ -53,8 +53,31 @@ def _fraction(v):
     return None if 0 < v <= 1 else "must lie in (0, 1]"
 
 
+def _at_most(limit, why):
+    """A check: value <= limit (larger values could only exhaust the machine)."""
+    return lambda v: None if v <= limit else f"must be <= {limit} ({why})"
+
+
+def _all(*checks):
+    return lambda v: next((text for text in (check(v) for check in checks) if text), None)
+
+
+def _title(v):
+    if len(v) > MAX_TITLE or not v.isprintable():
+        return f"must be one printable line of at most {MAX_TITLE} characters"
+    return None
+
+
+MAX_TITLE = 200        # characters of a title (one line: it heads the plot and the summary)
+MAX_NAME = 200         # characters of a group, region, parameter or option name
+MAX_LEVELS = 1000
+MAX_LOAD_STEPS = 10000
+MAX_QUADRATURE_DEGREE = 30
+
+
 KEYS = [
-    Key("title", "string", "one line naming the problem (default: the file's name)"),
+    Key("title", "string", f"one line naming the problem, at most {MAX_TITLE} characters (default: the file's "
+        "name)", check=_title),
     Key("description", "string", "free text"),
     Key("parameters.*", "number", "a named number, or an expression of the parameters above it; usable in "
         "every expression and number of the file"),
@@ -74,7 +97,7 @@ KEYS = [
         REQUIRED),
     Key("mesh.contact", "groups", "boundary groups of Γ_C, on the foundation", REQUIRED),
     Key("mesh.neumann", "groups", "boundary groups of Γ_N with a traction g; a boundary facet in no group, "
-        "or in a group in no role, is Γ_N with g = 0", []),
+        "or in a group in no role, is Γ_N with g = 0 (a group in no role is named in a warning)", []),
     Key("mesh.symmetry", "groups", "boundary groups on a symmetry plane normal to a coordinate axis: "
         "u·ν = 0, tangential traction free", []),
     # [material]
@@ -100,7 +123,7 @@ KEYS = [
     # [adapt]
     Key("adapt.refine", "choice", "refinement between levels", "none", ("none", "uniform", "adaptive")),
     Key("adapt.levels", "integer", "number of levels (solves) with `uniform`/`adaptive`", 6,
-        check=_at_least_one),
+        check=_all(_at_least_one, _at_most(MAX_LEVELS, "levels, each a solve"))),
     Key("adapt.theta", "number", "marking parameter θ in (0, 1] (`adaptive` only)", 0.5, check=_fraction),
     Key("adapt.marking", "choice", "marking strategy (`adaptive` only)", "doerfler", ("doerfler", "maximum")),
     Key("adapt.max_dofs", "integer", "stop once a level has this many dofs (default: no limit)",
@@ -112,15 +135,16 @@ KEYS = [
         "Cholesky (`direct`) or BoomerAMG (`iterative`)", "auto", ("auto", "direct", "iterative")),
     Key("solver.preconditioner_matrix", "choice", "matrix the preconditioner is built from", "auto",
         ("auto", "bulk", "jacobian")),
-    Key("solver.load_steps", "integer", "load increments on level 0", 1, check=_at_least_one),
+    Key("solver.load_steps", "integer", "load increments on level 0", 1,
+        check=_all(_at_least_one, _at_most(MAX_LOAD_STEPS, "increments, each a solve"))),
     Key("solver.petsc_options", "table", "PETSc options under the solver's prefix, e.g. "
         "`{ snes_rtol = 1e-12 }`; the command line's `-options` win", {}),
     Key("solver.petsc_options.*", "option", "one PETSc option (name without the dash)"),
     # [estimator]
     Key("estimator.contact_quadrature_degree", "integer", "Gauss degree of the Γ_C terms of η", NONE,
-        check=_at_least_one),
+        check=_all(_at_least_one, _at_most(MAX_QUADRATURE_DEGREE, "a Gauss rule's degree"))),
     Key("estimator.cell_quadrature_degree", "integer", "Gauss degree of the cell and Γ_N terms of η and ζ",
-        NONE, check=_at_least_one),
+        NONE, check=_all(_at_least_one, _at_most(MAX_QUADRATURE_DEGREE, "a Gauss rule's degree"))),
     # [reference]
     Key("reference.hertz", "choice", "print Hertz's contact size and peak pressure beside the computed ones: "
         "`line` (2D, a cylinder) or `sphere` (3D)", NONE, ("line", "sphere")),
@@ -176,9 +200,9 @@ def _children(prefix):
 
 def _number(value, where, parameters):
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise InputError(f"{where} must be a number, got {value!r}")
-    if isinstance(value, float) and not math.isfinite(value):
-        raise InputError(f"{where} must be a finite number, got {value!r}")
+        raise InputError(f"{where} must be a number, got {brief(value)}")
+    if not _finite_number(value):
+        raise InputError(f"{where} must be a finite number, got {brief(value)}")
     with _naming(where):
         if isinstance(value, str) and expressions.uses_coordinates(value):
             raise InputError(f"must be a number (it cannot depend on the coordinates), got '{value}'")
@@ -187,12 +211,23 @@ def _number(value, where, parameters):
 
 def _expression(value, where, parameters):
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise InputError(f"{where} must be a number or an expression string, got {value!r}")
-    if isinstance(value, float) and not math.isfinite(value):
-        raise InputError(f"{where} must be a finite number, got {value!r}")
+        raise InputError(f"{where} must be a number or an expression string, got {brief(value)}")
+    if not _finite_number(value):
+        raise InputError(f"{where} must be a finite number, got {brief(value)}")
     with _naming(where):
         expressions.check(value, parameters)
     return value
+
+
+def _finite_number(value):
+    """A string (an expression: checked where it is evaluated), or a number a float holds finitely
+    (a TOML integer may have any number of digits)."""
+    if isinstance(value, str):
+        return True
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 class _naming:
@@ -212,7 +247,7 @@ class _naming:
 
 def _vector(value, where, parameters):
     if not isinstance(value, list) or len(value) not in (2, 3):
-        raise InputError(f"{where} must be a list of 2 (2D) or 3 (3D) expressions, got {value!r}")
+        raise InputError(f"{where} must be a list of 2 (2D) or 3 (3D) expressions, got {brief(value)}")
     return [_expression(v, f"{where}[{i}]", parameters) for i, v in enumerate(value)]
 
 
@@ -220,25 +255,37 @@ def _groups(value, where, _):
     value = [value] if isinstance(value, (str, int)) and not isinstance(value, bool) else value
     if not isinstance(value, list) or not all(isinstance(v, (str, int)) and not isinstance(v, bool)
                                               for v in value):
-        raise InputError(f"{where} must be a list of group names or integer tags, got {value!r}")
+        raise InputError(f"{where} must be a list of group names or integer tags, got {brief(value)}")
+    for group in value:
+        if isinstance(group, str) and not _is_name(group):
+            raise InputError(f"{where}: group name {brief(group)} must be printable and at most {MAX_NAME} "
+                             "characters")
+        if isinstance(group, int) and not 0 < group < 2**31:
+            raise InputError(f"{where}: group tag {brief(group)} must lie in 1 … 2³¹ − 1 (gmsh's tags)")
     return value
+
+
+def _is_name(text):
+    return isinstance(text, str) and 0 < len(text) <= MAX_NAME and text.isprintable()
 
 
 def _integer(value, where, _):
     if isinstance(value, bool) or not isinstance(value, int):
-        raise InputError(f"{where} must be an integer, got {value!r}")
+        raise InputError(f"{where} must be an integer, got {brief(value)}")
     return value
 
 
 def _boolean(value, where, _):
     if not isinstance(value, bool):
-        raise InputError(f"{where} must be true or false, got {value!r}")
+        raise InputError(f"{where} must be true or false, got {brief(value)}")
     return value
 
 
 def _string(value, where, _):
     if not isinstance(value, str):
-        raise InputError(f"{where} must be a string, got {value!r}")
+        raise InputError(f"{where} must be a string, got {brief(value)}")
+    if "\0" in value:
+        raise InputError(f"{where} contains a NUL character")
     return value
 
 
@@ -247,22 +294,32 @@ def _corners(value, where, parameters):
         points = [[_number(c, where, parameters) for c in corner] for corner in value]
         assert len(points) == 2 and len(points[0]) == len(points[1]) in (2, 3)
     except (TypeError, AssertionError):
-        raise InputError(f"{where} must be [[x0, y0], [x1, y1]] (or with z), got {value!r}") from None
+        raise InputError(f"{where} must be [[x0, y0], [x1, y1]] (or with z), got {brief(value)}") from None
     if not all(b > a for a, b in zip(*points)):
-        raise InputError(f"{where} must have x1 > x0, y1 > y0 (and z1 > z0), got {value!r}")
+        raise InputError(f"{where} must have x1 > x0, y1 > y0 (and z1 > z0), got {brief(value)}")
     return points
 
 
 def _cells(value, where, _):
     if not (isinstance(value, list) and len(value) in (2, 3)
             and all(isinstance(c, int) and not isinstance(c, bool) and c >= 1 for c in value)):
-        raise InputError(f"{where} must be 2 (rectangle) or 3 (box) positive integers, got {value!r}")
+        raise InputError(f"{where} must be 2 (rectangle) or 3 (box) positive integers, got {brief(value)}")
+    simplices = math.prod(value) * (2 if len(value) == 2 else 6)
+    if simplices > MAX_BUILT_IN_CELLS:
+        count = f"{simplices:.3g}" if simplices < 1e300 else "more than 1e300"
+        raise InputError(f"{where} = {brief(value)} asks for {count} cells: a built-in mesh is made on "
+                         f"one rank first, and DOLFINx indexes at most {MAX_BUILT_IN_CELLS:.3g} there (refine "
+                         "adaptively, or give a mesh file)")
     return value
 
 
+MAX_BUILT_IN_CELLS = 2**31 - 1  # DOLFINx's local indices are 32-bit; 0.5.2 builds the mesh on rank 0
+
+
 def _option(value, where, _):
-    if not isinstance(value, (str, int, float, bool)):
-        raise InputError(f"{where} must be a string, number or boolean, got {value!r}")
+    if not isinstance(value, (str, int, float, bool)) or not _finite_number(value) \
+            or isinstance(value, str) and not value.isprintable():
+        raise InputError(f"{where} must be a printable string, a finite number or a boolean, got {brief(value)}")
     return value
 
 
@@ -281,13 +338,13 @@ def _convert(key, value, where, parameters):
     if key.kind == "choice":
         if value not in key.choices:
             hint = _suggest(value, key.choices) if isinstance(value, str) else ""
-            raise InputError(f"{where} must be one of {', '.join(map(repr, key.choices))}, got {value!r}"
+            raise InputError(f"{where} must be one of {', '.join(map(repr, key.choices))}, got {brief(value)}"
                              + (hint if "did you mean" in hint else ""))
         return value
     value = _KINDS[key.kind](value, where, parameters)
     problem = key.check(value) if key.check else None
     if problem:
-        raise InputError(f"{where} {problem}, got {value}")
+        raise InputError(f"{where} {problem}, got {brief(value)}")
     return value
 
 
@@ -301,10 +358,26 @@ def parameters_of(data):
     values = {}
     reserved = set(expressions.COORDINATES) | {"pi"} | set(expressions.FUNCTIONS)
     for name, text in table.items():
-        if name in reserved or not name.isidentifier():
-            raise InputError(f"parameter name '{name}' is not allowed (reserved or not an identifier)")
+        if name in reserved or not name.isidentifier() or len(name) > MAX_NAME:
+            raise InputError(f"parameter name '{brief_text(name)}' is not allowed (reserved or not an identifier)")
         values[name] = _number(text, f"parameters.{name}", values)
     return values
+
+
+MAX_DEPTH = 8  # tables and arrays within one another: the deepest key, material.regions.NAME.E, is 4
+
+
+def check_depth(data):
+    """Refuse a problem table nested deeper than any key of the schema (TOML's dotted keys and headers
+    nest without limit), found without recursion: copying or validating it would recurse that deep."""
+    stack = [(data, ())]
+    while stack:
+        value, path = stack.pop()
+        if len(path) > MAX_DEPTH:
+            raise InputError(f"'{brief_text('.'.join(path[:MAX_DEPTH + 1]))}…' is nested more than {MAX_DEPTH} "
+                             "tables or arrays deep: no key of a problem is")
+        items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+        stack.extend((child, (*path, str(key))) for key, child in items)
 
 
 def validate(data):
@@ -317,7 +390,7 @@ def validate(data):
         raise InputError("a problem must be a table")
     for section in data:
         if section not in SECTIONS:
-            raise InputError(f"unknown section '[{section}]'" + _suggest(section, SECTIONS, "[{}]"))
+            raise InputError(f"unknown section '[{brief_text(section)}]'" + _suggest(section, SECTIONS, "[{}]"))
     parameters = parameters_of(data)
     values, given = {"parameters": dict(parameters)}, {f"parameters.{name}" for name in parameters}
     for section in SECTIONS:
@@ -340,20 +413,22 @@ def _section(prefix, table, parameters, given):
     out = {}
     for name, value in table.items():
         path = f"{prefix}.{name}"
+        if not _is_name(name):
+            raise InputError(f"key '{brief_text(path)}': a name must be printable and at most {MAX_NAME} characters")
         key = find_key(path)
         if key is None and _is_table_prefix(path):  # material.regions, material.regions.NAME
             if not isinstance(value, dict):
-                raise InputError(f"{path} must be a table, got {value!r}")
+                raise InputError(f"{path} must be a table, got {brief(value)}")
             out[name] = _section(path, value, parameters, given)
             continue
         if key is None:
-            raise InputError(f"unknown key '{path}'" + _suggest(name, _children(prefix), prefix + ".{}"))
+            raise InputError(f"unknown key '{brief_text(path)}'" + _suggest(name, _children(prefix), prefix + ".{}"))
         given.add(path)
         if key.kind == "traction":
             out[name] = _traction(value, path, parameters, given)
         elif key.kind == "table":
             if not isinstance(value, dict):
-                raise InputError(f"{path} must be a table, got {value!r}")
+                raise InputError(f"{path} must be a table, got {brief(value)}")
             out[name] = _section(path, value, parameters, given)
         else:
             out[name] = _convert(key, value, path, parameters)
@@ -384,8 +459,11 @@ def _traction(value, path, parameters, given):
     if isinstance(value, list):
         return _vector(value, path, parameters)
     if not isinstance(value, dict):
-        raise InputError(f"{path} must be a vector or a table {{group = [...]}}, got {value!r}")
+        raise InputError(f"{path} must be a vector or a table {{group = [...]}}, got {brief(value)}")
     for group in value:
+        if not _is_name(group):
+            raise InputError(f"{path}: group name {brief(group)} must be printable and at most {MAX_NAME} "
+                             "characters")
         given.add(f"{path}.{group}")
     return {group: _vector(vec, f"{path}.{group}", parameters) for group, vec in value.items()}
 

@@ -37,8 +37,8 @@ from dolfinx.fem import petsc as fem_petsc
 
 from . import dolfinx_versions as versions
 from .errors import InputError
+from .petsc_options import PREFIX, check_petsc_option, set_petsc_options, together
 
-PREFIX = "nc_"
 
 NEWTON_DEFAULTS = {
     "snes_type": "newtonls",
@@ -176,15 +176,19 @@ WARM_DIRECT_MAX_DOFS = 1_000_000
 
 def resolve_options(options, dim, dofs, warm_start):
     """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved by
-    choose_preset, under the settings of the preconditioner in force (preconditioner_settings)."""
+    choose_preset, under the settings of the preconditioner in force (preconditioner_settings). The user's
+    values are checked first (_check_own_option, check_petsc_option: InputError), numbers as parsed."""
     user = {k.lstrip("-"): v for k, v in options.items()}
     preset = str(user.pop("preset", "auto"))
     if preset not in PRESET_NAMES:
         raise InputError(f"solver preset must be one of {', '.join(PRESET_NAMES)}, got '{preset}'")
     name = choose_preset(dim, dofs, warm_start) if preset == "auto" else preset
     resolved = {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name]}
-    for key in OWN_DEFAULTS.keys() & user.keys():
-        _check_own_option(key, user[key])
+    for key in user:
+        if key in OWN_DEFAULTS:
+            _check_own_option(key, user[key])
+        else:
+            user[key] = check_petsc_option(key, user[key])
     options = {**resolved, **user}
     return name, {**preconditioner_settings(options.get("pc_type"), dim), **options}
 
@@ -206,26 +210,6 @@ def _check_own_option(key, value):
 def _flag(value):
     """An option's truth value: true/false/1/0/yes/no (None: set without a value, i.e. true)."""
     return value is None or str(value).lower() in ("true", "1", "yes", "on")
-
-
-_OPTIONS_SET = {}  # prefix -> keys set by the last call: PETSc's options database is global
-
-
-def set_petsc_options(options, prefix=PREFIX):
-    """Replace the options under ``prefix`` (those a previous solver set are removed first, so that one
-    process can run several solvers with different settings)."""
-    db = PETSc.Options(prefix)
-    for key in _OPTIONS_SET.pop(prefix, ()):
-        db.delValue(key)
-    _OPTIONS_SET[prefix] = [key.lstrip("-") for key in options]
-    for key, value in options.items():
-        key = key.lstrip("-")
-        if value is None or value is True:
-            db[key] = None if value is None else "true"
-        elif value is False:
-            db[key] = "false"
-        else:
-            db[key] = value
 
 
 def rigid_body_modes(V):
@@ -392,6 +376,23 @@ class Forcing:
         return max(eta, guard) if guard > p["threshold"] else eta
 
 
+def _check_finite(matrix_or_vector, message):
+    """Raise InputError(message) on every rank if an entry is inf or NaN. (PETSc's norms would not say:
+    their comparisons skip NaN. A matrix is multiplied by a vector of ones, which carries any inf or NaN
+    entry into the product without a copy of the matrix.)"""
+    vector = matrix_or_vector
+    if isinstance(matrix_or_vector, PETSc.Mat):
+        ones, vector = matrix_or_vector.createVecs()
+        ones.set(1.0)
+        matrix_or_vector.mult(ones, vector)
+        ones.destroy()
+    finite = np.all(np.isfinite(vector.getArray(readonly=True)))
+    if vector is not matrix_or_vector:
+        vector.destroy()
+    if matrix_or_vector.getComm().tompi4py().allreduce(not finite, MPI.LOR):
+        raise InputError(message)
+
+
 class NonlinearSolver:
     """SNES for (7): F(u) = K u + j_n(u, ·) − λ L = 0, J(u) = K + j_n'(u), homogeneous Dirichlet BCs.
 
@@ -452,6 +453,10 @@ class NonlinearSolver:
         self.load = fem_petsc.assemble_vector(fem.form(forms.L))
         self.load.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fem_petsc.set_bc(self.load, self.bcs)
+        _check_finite(self.K, "the stiffness matrix K of (7) overflows double precision: material.E (or a "
+                              "region's E) is too large for this mesh")
+        _check_finite(self.load, "the load vector L of (7) overflows double precision: loads.f or loads.g is "
+                                 "too large")
         self.load_factor = 1.0
         self.load_abs = None  # |L|, made when _within_roundoff first needs it
         self.xKx = (None, None, 0.0)  # (x's handle, its state, xᵀKx): see _residual
@@ -460,22 +465,60 @@ class NonlinearSolver:
         self.work, self.trial, self.predicted = self.K.createVecRight(), versions.petsc_vec(self.u).copy(), self.K.createVecRight()
 
     def _create_snes(self):
+        """SNES and its KSP configured from the options (a PETSc error there, or in the rehearsal of the
+        Krylov/PC set-up, is an InputError naming the user's options when the user gave any: see petsc_options.together)."""
         set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
+        user = {k: v for k, v in self.options.items() if k in self.user_keys and k not in OWN_DEFAULTS}
         self.snes = PETSc.SNES().create(self.comm)
         self.snes.setOptionsPrefix(PREFIX)
         self.snes.setFunction(self._residual, self.b)
         self.snes.setJacobian(self._jacobian, self.A, self.P)
         self.snes.setObjective(self._objective)
         self.snes.setLineSearchPreCheck(self._precheck)
-        self.snes.setFromOptions()
         ksp = self.snes.getKSP()
-        ksp.setFromOptions()
+
+        def configure():
+            self.snes.setFromOptions()
+            ksp.setFromOptions()
+
+        together(self.comm, configure, user)
+        if user:
+            together(self.comm, self._rehearse_set_up, user)
         ksp.setConvergenceHistory(reset=True)  # for the Krylov growth (see _krylov_grew)
         # Eisenstat–Walker's parameters as PETSc read them, applied by Forcing instead of PETSc's code
         self.forcing = Forcing(self.snes.getParamsEW()) if self.snes.getUseEW() else None
         self.snes.setUseEW(False)
         self.atol_given = "snes_atol" in self.options
         self.rtol, self.atol, _, _ = self.snes.getTolerances()  # SNES gets them as one target (_target)
+
+    def _rehearse_set_up(self):
+        """The first Krylov/PC set-up, rehearsed with the options in force on a small SPD matrix of J's
+        block size and type, distributed like J (4 block rows per rank of 3 on the diagonal, −1 beside it):
+        PETSc reads some options only at the set-up (a factorisation's solver package, which may not be built
+        or not take this matrix; multigrid levels' and blocks' sub-solvers; hypre's AMS, which needs
+        coordinates), and the real one happens inside the first Newton step. The rehearsal reads the options
+        the real set-up reads (the same types), and takes milliseconds."""
+        bs = self.K.getBlockSize()
+        rows = 4 * bs
+        A = PETSc.Mat().createAIJ(((rows, None), (rows, None)), bsize=bs, nnz=(3, 1), comm=self.comm)
+        ksp = PETSc.KSP().create(self.comm)
+        try:
+            start, end = A.getOwnershipRange()
+            size = A.getSize()[0]
+            for i in range(start, end):
+                A.setValue(i, i, 3.0)
+                for j in (i - 1, i + 1):
+                    if 0 <= j < size:
+                        A.setValue(i, j, -1.0)
+            A.assemble()
+            A.setOption(PETSc.Mat.Option.SPD, True)
+            ksp.setOptionsPrefix(PREFIX)
+            ksp.setOperators(A, A)
+            ksp.setFromOptions()
+            ksp.setUp()
+        finally:
+            ksp.destroy()
+            A.destroy()
 
     # --- evaluations -------------------------------------------------------------------------------
 

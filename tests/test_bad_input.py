@@ -182,7 +182,8 @@ CASES = [
     ("malformed_toml", lambda m, t: [block_with(t, "\n[contact\nm_n = 2\n")], "malformed TOML"),
     ("unknown_section", lambda m, t: [block_with(t, "\n[contacts]\nm_n = 2\n")], "unknown section '[contacts]' (did you mean '[contact]'?)"),
     ("unknown_section_set", lambda m, t: ["block", *FAST, "--set", "solverr.x=1"], "unknown section '[solverr]' (did you mean '[solver]'?)"),
-    ("not_a_mesh_file", lambda m, t: [gmsh_problem(m, "garbage")], "cannot read mesh file"),
+    ("not_a_mesh_file", lambda m, t: [gmsh_problem(m, "garbage")],
+     "garbage.msh' is not a gmsh .msh file (it does not start with $MeshFormat)"),
     ("binary_problem_file", lambda m, t: [m / "binary.toml"], "is not a text (UTF-8) TOML file"),
     ("mesh_file_not_a_string", lambda m, t: ["block", *FAST, "--set", "mesh.file=3"],
      "mesh.file must be a string, got 3"),
@@ -270,6 +271,42 @@ CASES = [
      "solver option fallbacks must be true or false, got 'maybe'"),
     ("load_steps_not_integer", lambda m, t: ["block", *FAST, "--set", 'solver.load_steps="x"'],
      "solver.load_steps must be an integer"),
+    # PETSc option values (issue 31, item 4): refused before the solve, naming the option and its value
+    ("ksp_type_unknown", lambda m, t: ["block", *FAST, "-ksp_type", "bogus"],
+     "PETSc option -ksp_type bogus: unknown KSP type (known: bcgs, "),
+    ("snes_type_unknown", lambda m, t: ["block", *FAST, "-snes_type", "newtontr2"],
+     "PETSc option -snes_type newtontr2: unknown SNES type (did you mean newtontr? known: "),
+    ("pc_type_unknown", lambda m, t: ["block", *FAST, "-pc_type", "nosuch"], "PETSc option -pc_type nosuch: unknown PC type"),
+    ("linesearch_type_unknown", lambda m, t: ["block", *FAST, "-snes_linesearch_type", "nosuch"],
+     "PETSc option -snes_linesearch_type nosuch: unknown line search type (known: basic, "),
+    ("ksp_norm_type_unknown", lambda m, t: ["block", *FAST, "-ksp_norm_type", "nosuch"],
+     "PETSc option -ksp_norm_type nosuch: unknown norm type (known: none, preconditioned, unpreconditioned, natural)"),
+    ("mat_solver_type_unknown", lambda m, t: ["block", *FAST, "-pc_factor_mat_solver_type", "nosuch"],
+     "PETSc option -pc_factor_mat_solver_type nosuch: unknown solver type of a factorisation (known: "),
+    ("mat_solver_type_not_built", lambda m, t: ["block", *FAST, "-pc_factor_mat_solver_type", "pastix"],
+     "PETSc option -pc_factor_mat_solver_type pastix: PETSc refused it: Could not locate solver type pastix"),
+    ("hypre_type_unknown", lambda m, t: ["block", *FAST, "-pc_hypre_type", "nosuch"],
+     "PETSc option -pc_hypre_type nosuch: unknown hypre type (known: ads, ams, boomeramg, "),
+    ("hypre_type_unknown_in_force", lambda m, t: ["block", *FAST, "-pc_type", "hypre", "-pc_hypre_type", "nosuch"],
+     "PETSc option -pc_hypre_type nosuch: unknown hypre type"),
+    ("level_ksp_type_unknown", lambda m, t: ["block", *FAST, "-pc_type", "gamg", "-mg_levels_ksp_type", "bogus"],
+     "PETSc option -mg_levels_ksp_type bogus: unknown KSP type"),
+    ("snes_rtol_not_a_number", lambda m, t: ["block", *FAST, "-snes_rtol", "abc"],
+     "PETSc option -snes_rtol abc: not a number (expected a number >= 0 and < 1)"),
+    ("snes_max_it_negative", lambda m, t: ["block", *FAST, "-snes_max_it", "-5"],
+     "PETSc option -snes_max_it -5: must be a whole number >= 0"),
+    ("mumps_control_not_a_number", lambda m, t: ["block", *FAST, "-mat_mumps_icntl_7", "abc"],
+     "PETSc option -mat_mumps_icntl_7 abc: not a number (expected a whole number)"),
+    ("petsc_flag_not_a_flag", lambda m, t: ["block", *FAST, "-snes_ksp_ew", "maybe"],
+     "PETSc option -snes_ksp_ew maybe: not true or false"),
+    ("ksp_type_unknown_in_file", lambda m, t: ["block", *FAST, "--set", 'solver.petsc_options={ksp_type="bogus"}'],
+     "PETSc option -ksp_type bogus: unknown KSP type"),
+    ("snes_rtol_not_a_number_in_file", lambda m, t: ["block", *FAST, "--set", 'solver.petsc_options.snes_rtol="abc"'],
+     "PETSc option -snes_rtol abc: not a number"),
+    ("snes_max_it_flag_in_file", lambda m, t: ["block", *FAST, "--set", "solver.petsc_options.snes_max_it=true"],
+     "PETSc option -snes_max_it true: not a number (expected a whole number >= 0)"),
+    ("snes_max_it_fraction_in_file", lambda m, t: ["block", *FAST, "--set", "solver.petsc_options.snes_max_it=2.5"],
+     "PETSc option -snes_max_it 2.5: must be a whole number >= 0"),
     # command line
     ("set_without_equals", lambda m, t: ["block", *FAST, "--set", "contact.m_n"], "--set expects KEY=VALUE"),
     ("set_without_key", lambda m, t: ["block", *FAST, "--set", "=2"], "--set expects KEY=VALUE"),
@@ -298,7 +335,8 @@ def test_bad_input(msh, tmp_path, make_args, expected):
 # Representative cases on 2 ranks: one error line (not one per rank), non-zero exit, no results, no hang.
 MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_3d", "empty_mesh",
              "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value", "unused_petsc_option",
-             "quad_mesh", "m_n_above_3_in_3d", "symmetry_not_planar", "hexahedral_mesh", "empty_gamma_c_box"]
+             "quad_mesh", "m_n_above_3_in_3d", "symmetry_not_planar", "hexahedral_mesh", "empty_gamma_c_box",
+             "ksp_type_unknown", "snes_rtol_not_a_number", "mat_solver_type_not_built"]
 
 
 @pytest.mark.parametrize("name", MPI_CASES)
@@ -307,6 +345,50 @@ def test_bad_input_two_ranks(msh, tmp_path, name):
     out = tmp_path / "out"
     result = cli([*make_args(msh, tmp_path), "--out", out], nprocs=2, cwd=tmp_path)
     assert_bad_input(result, expected, out, nprocs=2)
+
+
+@pytest.mark.parametrize("bad", [["-ksp_type", "bogus"], ["-snes_max_it", "-5"], ["-pc_factor_mat_solver_type", "pastix"]],
+                         ids=["type", "number", "set_up"])
+def test_bad_petsc_value_stops_before_the_solve(tmp_path, bad):
+    """A bad PETSc option value ends the run before SNES evaluates a residual (-snes_monitor stays silent),
+    also one that PETSc would meet only at the first preconditioner set-up, inside the first Newton step."""
+    out = tmp_path / "out"
+    result = cli(["block", *FAST, "-snes_monitor", *bad, "--out", out], cwd=tmp_path)
+    assert_bad_input(result, f"PETSc option {' '.join(bad)}: ", out)
+    assert "SNES Function norm" not in result.stdout + result.stderr
+
+
+# mesh.file is read as a mesh only (issue 31, item 1): gmsh runs anything else as a script, whose SystemCall
+# runs a command; so is an options file <mesh>.msh.opt beside a good mesh.
+HOSTILE = 'SystemCall "touch CANARY";\n'
+MESH_FILES = [
+    ("script_named_msh", "x.msh", HOSTILE, "x.msh' is not a gmsh .msh file (it does not start with $MeshFormat)"),
+    ("script_named_geo", "x.geo", HOSTILE, "x.geo' is not a gmsh .msh file (its name does not end in .msh)"),
+    ("empty", "x.msh", "", "x.msh' is not a gmsh .msh file (it is empty)"),
+    ("header_not_first", "x.msh", "\n$MeshFormat\n" + HOSTILE, "x.msh' is not a gmsh .msh file (it does not start"),
+]
+
+
+@pytest.mark.parametrize("nprocs", [1, 2])
+@pytest.mark.parametrize("name, text, expected", [c[1:] for c in MESH_FILES], ids=[c[0] for c in MESH_FILES])
+def test_mesh_file_is_read_as_a_mesh_only(tmp_path, name, text, expected, nprocs):
+    (tmp_path / name).write_text(text)
+    problem = gmsh_problem(tmp_path, "x")
+    problem.write_text(problem.read_text().replace('"x.msh"', f'"{name}"'))
+    out = tmp_path / "out"
+    result = cli([problem, "--refine", "none", "--quiet", "--out", out], nprocs=nprocs, cwd=tmp_path)
+    assert_bad_input(result, expected, out, nprocs=nprocs)
+    assert not (tmp_path / "CANARY").exists(), "gmsh ran the file as a script"
+
+
+def test_options_file_beside_the_mesh_is_not_run(msh, tmp_path):
+    """gmsh merges <file>.opt after <file> as a script: it must not see the user's one."""
+    (tmp_path / "good.msh").write_bytes((msh / "good.msh").read_bytes())
+    (tmp_path / "good.msh.opt").write_text(HOSTILE)
+    out = tmp_path / "out"
+    result = cli([gmsh_problem(tmp_path, "good"), "--refine", "none", "--quiet", "--out", out], cwd=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert not (tmp_path / "CANARY").exists(), "gmsh ran good.msh.opt as a script"
 
 
 @pytest.mark.parametrize("overwrite", [False, True], ids=["plain", "overwrite"])

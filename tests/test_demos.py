@@ -29,8 +29,10 @@ TIMEOUT = 400  # seconds for one run; a hang fails the test instead of blocking 
 
 def run_demo(name, nprocs, out_dir):
     """``mpirun -n NPROCS python3 -W error -m mpi4py demos/NAME --small --out OUT_DIR`` from a scratch
-    directory. ``-m mpi4py`` aborts every rank when one raises, so a failed check cannot leave the other
-    ranks waiting; a run that still does not end in TIMEOUT is killed with its process group."""
+    directory. A demo fails on every rank together (global checks; rank 0's gmsh model through
+    nc.from_gmsh_model(build=...)); ``-m mpi4py`` alone would not stop ranks waiting for a failed one (with
+    petsc4py loaded the failed rank does not reach mpi4py's abort at exit: demos/README.md). A run that does
+    not end in TIMEOUT is killed with its process group."""
     mpirun = ["mpirun", "-n", str(nprocs)] + (["--allow-run-as-root"] if os.geteuid() == 0 else [])
     # DOLFINx 0.9 warns at import that the optional numba is missing: that one warning is not the demo's
     command = mpirun + [PYTHON, "-W", "error", "-W", "ignore:Could not import numba:ImportWarning", "-m", "mpi4py",

@@ -5,12 +5,15 @@ test_refinement.py, the error broadcast on 2 ranks at the end of this file.
 """
 import contextlib
 import json
+import os
+import signal
+import subprocess
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from conftest import ROOT, run
+from conftest import PYTHON, ROOT, mpirun_prefix, run
 from nc_dolfinx import dolfinx_versions as versions, meshes
 from nc_dolfinx.errors import InputError
 
@@ -275,6 +278,79 @@ def test_from_gmsh_refuses_a_surface_in_two_groups(tmp_path):
     with pytest.raises(InputError) as err:
         meshes.from_gmsh(COMM, path)
     assert str(err.value) == f"mesh file '{path}': boundary surface 2 is in two groups, 'left' and 'interface'"
+
+
+# --- a .msh file is read as a mesh only; a model built on one rank (issue 31, items 1 and 3) ------
+
+def test_from_gmsh_reads_a_mesh_file_only(tmp_path):
+    """gmsh runs any file it does not take for a mesh as a script (SystemCall runs a command), and merges
+    <file>.opt after it as one: none of them may reach it."""
+    canary = tmp_path / "CANARY"
+    hostile = f'SystemCall "touch {canary}";\n'
+    good = tmp_path / "good.msh"
+    with gmsh_session() as gmsh:
+        square(gmsh, "triangles")
+        gmsh.write(str(good))
+    (tmp_path / "good.msh.opt").write_text(hostile)
+    assert meshes.from_gmsh(COMM, good).num_cells() > 0
+    (tmp_path / "script.msh").write_text(hostile)
+    (tmp_path / "script.geo").write_text(hostile)
+    (tmp_path / "bom.msh").write_bytes(b"\xef\xbb\xbf$MeshFormat\n" + hostile.encode())
+    (tmp_path / "empty.msh").write_text("")
+    (tmp_path / "folder.msh").mkdir()
+    os.mkfifo(tmp_path / "fifo.msh")  # (opening it must not wait for a writer)
+    for name, expected in [("script.msh", "is not a gmsh .msh file (it does not start with $MeshFormat)"),
+                           ("bom.msh", "is not a gmsh .msh file (it does not start with $MeshFormat)"),
+                           ("script.geo", "is not a gmsh .msh file (its name does not end in .msh)"),
+                           ("empty.msh", "is not a gmsh .msh file (it is empty)"),
+                           ("folder.msh", "is a directory, not a file"), ("fifo.msh", "is not a regular file"),
+                           ("missing.msh", "not found"), ("x" * 300 + ".msh", "File name too long")]:
+        with pytest.raises(InputError) as err:
+            meshes.from_gmsh(COMM, tmp_path / name)
+        text = str(err.value)
+        assert "mesh file '" in text and expected in text and "\n" not in text, text
+        assert f"{name}' {expected}" in text or len(name) > 200, text  # (a long name is cut short)
+    assert not canary.exists(), "gmsh ran a script"
+
+
+def test_from_gmsh_model_runs_build_and_reports_its_failure():
+    def build(gmsh):
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("bad")
+        square(gmsh, "triangles")
+
+    assert meshes.from_gmsh_model(COMM, build=build).num_cells() > 0
+
+    def failing():  # (no argument: called without gmsh)
+        raise ValueError("no such geometry")
+
+    with pytest.raises(InputError) as err:
+        meshes.from_gmsh_model(COMM, build=failing)
+    assert str(err.value) == "the gmsh model built on rank 0 failed: ValueError: no such geometry"
+
+
+@pytest.mark.parametrize("mode", ["fail", "ok", "ok_without_argument"])
+def test_a_build_failing_on_its_rank_stops_every_rank(mode):
+    """On 2 ranks, a build that raises on rank 0 only: both ranks end with the same InputError and exit
+    status 1, in time (a rank left waiting would hang the job: it is killed and the test fails)."""
+    command = mpirun_prefix(2) + [PYTHON, str(ROOT / "tests" / "mpi" / "gmsh_build.py"), mode]
+    env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
+    proc = subprocess.Popen(command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"no exit within 120 s (a rank waiting for rank 0?):\n{out}\n{err}")
+    if mode == "fail":
+        message = "InputError: the gmsh model built on rank 0 failed: ValueError: no such geometry"
+        assert proc.returncode == 1, out + err
+        assert sorted(line for line in out.splitlines() if line.startswith("rank ")) == \
+            [f"rank 0: {message}", f"rank 1: {message}"], out + err
+    else:
+        assert proc.returncode == 0, out + err
+        assert int(out.split("cells:")[1].split()[0]) > 0
 
 
 def test_errors_reach_every_rank():
