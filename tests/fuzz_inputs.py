@@ -861,6 +861,12 @@ def _non_finite(value, where=""):
             yield from _non_finite(v, where)
 
 
+# Open MPI 5's launcher (trixie), not the program: after a rank exits with status 1 it now and then prints
+# "[host:pid] PMIX ERROR: PMIX_ERR_UNREACH in file ../src/server/pmix_server.c ..." (seen in 1 of 6 runs of a
+# plain mpi4py script that calls sys.exit(1) on both ranks after a barrier).
+LAUNCHER_NOISE = re.compile(r"^\[[^\]]*\] PMIX ERROR: ")
+
+
 def _error_line_breaks(o, fi):
     breaks = []
     lines = [line for line in o.stdout.splitlines() if line.strip()]
@@ -873,7 +879,8 @@ def _error_line_breaks(o, fi):
     line = lines[i]
     if not all(_KEPT.match(after) for after in lines[i + 1:]):
         breaks.append(f"the error line is not the last line of stdout (then: {_short(lines[i + 1:], 200)})")
-    others = [x for x in lines[:i] + lines[i + 1:] + o.stderr.splitlines() if "error" in x.lower()]
+    others = [x for x in lines[:i] + lines[i + 1:] + o.stderr.splitlines()
+              if "error" in x.lower() and not LAUNCHER_NOISE.match(x)]
     if others:
         breaks.append(f"other lines mention 'error': {_short(others[:3], 300)}")
     if fi.words and not any(word in line for word in fi.words):
