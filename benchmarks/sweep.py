@@ -34,7 +34,7 @@ CONFIGS = {
     "shipped": [],
     "iterative": IT,
     "direct": ["--preset", "direct"],
-    # the forcing terms (the iterative preset: Eisenstat–Walker version 3, rtol0 0.03, see solver.Forcing)
+    # the forcing terms (the iterative preset: Eisenstat–Walker version 3, rtol0 0.03, see solver.forcing.Forcing)
     "ew1": IT + p("snes_ksp_ew_version=1"),
     "ew2": IT + p("snes_ksp_ew_version=2"),
     "ew-rtol0-0.1": IT + p("snes_ksp_ew_rtol0=0.1"),
@@ -42,7 +42,7 @@ CONFIGS = {
     "ew-rtolmax-0.5": IT + p("snes_ksp_ew_rtolmax=0.5"),
     "no-ew": IT + p("snes_ksp_ew=false"),
     "preconditioned-norm": IT + p("ksp_norm_type=preconditioned"),
-    # BoomerAMG variants (the shipped settings: solver.HYPRE_BY_DIM)
+    # BoomerAMG variants (the shipped settings: solver.linear.HYPRE_BY_DIM)
     "hypre-nodal": IT + HYPRE_NODAL,
     "hypre-agg1": IT + p("pc_hypre_boomeramg_agg_nl=1"),
     "hypre-agg2": IT + p("pc_hypre_boomeramg_agg_nl=2"),

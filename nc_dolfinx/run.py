@@ -15,7 +15,8 @@ from mpi4py import MPI
 
 import nc_dolfinx as nc
 
-from . import columns, interrupt, output, petsc_options, postprocess, provenance, vtu
+from . import columns, interrupt, output, postprocess, provenance, vtu
+from .solver import petsc_options
 from .errors import InputError
 
 DOUBTFUL_FRACTION = 0.1  # penetration or |u| beyond this part of the body's diameter: warn

@@ -34,7 +34,7 @@ PUBLIC_DUNDERS = {"__version__", "__name__", "__doc__", "__all__"}
 CLI_COMPANIONS = {"cli": "arguments", "run": "one case run", "output": "the result folder",
                   "postprocess": "fields written beside the solution", "vtu": "VTK files", "plots": "plots",
                   "columns": "what the output columns mean", "provenance": "versions and command line",
-                  "petsc_options": "unused PETSc options", "interrupt": "Ctrl-C", "log": "progress lines",
+                  "solver.petsc_options": "unused PETSc options", "interrupt": "Ctrl-C", "log": "progress lines",
                   "errors": "the error type a user sees"}
 SCRIPTS = sorted([*ROOT.glob("verification/*.py"), *ROOT.glob("benchmarks/*.py")])
 FRONT_END = [ROOT / PACKAGE / "cli.py", ROOT / PACKAGE / "run.py"]
@@ -131,9 +131,12 @@ class _Scan(ast.NodeVisitor):
                 allowed = self.public_name(alias.name) or companion
                 if companion:
                     self.companions.add(alias.asname or alias.name)
+            elif submodule is not None and f"{submodule}.{alias.name}" in CLI_COMPANIONS:  # from .solver import petsc_options
+                allowed = self.inside_package
+                self.companions.add(alias.asname or alias.name)
             else:
                 allowed = (submodule is not None and self.inside_package and not alias.name.startswith("_")
-                           and submodule.split(".")[0] in CLI_COMPANIONS)
+                           and (submodule in CLI_COMPANIONS or submodule.split(".")[0] in CLI_COMPANIONS))
             if not allowed:
                 self.flag(node, f"from {'.' * node.level}{module} import {alias.name}")
 

@@ -84,7 +84,7 @@ def test_forms_compiled_once_per_run(smoke, problem):
 
 def test_the_boomeramg_floor_is_set_up_as_the_solver_sets_it_up():
     """benchmarks/ use the public API only, so the BoomerAMG floor spells out its options: they must be the
-    solver's in each dimension (solver.HYPRE_BY_DIM), or the "(hypre)" columns would compare against another
+    solver's in each dimension (solver.linear.HYPRE_BY_DIM), or the "(hypre)" columns would compare against another
     preconditioner."""
     import importlib.util
     from nc_dolfinx.solver import HYPRE_BY_DIM

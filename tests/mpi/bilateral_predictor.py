@@ -1,4 +1,4 @@
-"""The bilateral predictor (solver.NonlinearSolver._bilateral_predictor) on the benchmark family's square
+"""The bilateral predictor (solver.newton.NonlinearSolver._bilateral_predictor) on the benchmark family's square
 (E = 1, clamped top, f = (0, −0.5), c_n/E = 1e4, m_n = 1, 24 x 24 cells), on any number of ranks; prints
 (rank 0, JSON) per gap and preset the Newton/Krylov counts and preconditioner set-ups with and without the
 predictor, and the largest nodal differences between the two solutions and to the bilateral solution (the

@@ -1,4 +1,4 @@
-"""A cantilever sagging onto a stiff foundation (solver.NonlinearSolver._retry_c_n_continuation): 10 × 1
+"""A cantilever sagging onto a stiff foundation (solver.recovery.Recoveries._retry_c_n_continuation): 10 × 1
 (3D: 10 × 1 × 1), 160 × 16 cells (3D: 40 × 4 × 4), E = 1, clamped at x = 0, f = −0.01 downwards (unsupported,
 its tip would sink by ~150), the gap g_0 = 0.01 below it, m_n = 1, c_n/E = 1e9. Its tip touches first, and
 Newton's line search then stops each step where the next points touch. Prints (rank 0, JSON) per dimension

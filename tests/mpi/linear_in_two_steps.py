@@ -1,4 +1,4 @@
-"""Inexact Newton on a linear problem (solver.Forcing), on any number of ranks: the benchmark family's square
+"""Inexact Newton on a linear problem (solver.forcing.Forcing), on any number of ranks: the benchmark family's square
 (E = 1, clamped top, f = (0, −0.5), 24 x 24 cells) with c_n = 0 (linear elasticity), solved by the
 `iterative` preset (CG + BoomerAMG, the forcing terms) and by `direct` (MUMPS). Prints (rank 0, JSON) the
 Newton counts and the largest nodal difference between the two solutions relative to the largest

@@ -1,4 +1,4 @@
-"""A stiff penalty with a gap ends where the residual reaches its round-off (solver.NonlinearSolver._within_roundoff):
+"""A stiff penalty with a gap ends where the residual reaches its round-off (solver.newton.NonlinearSolver._within_roundoff):
 the family's square (24 x 24 cells) and cube (6 x 6 x 6), m_n = 1, c_n/E = 1e8 and 1e12, g_0 = 0.002(1 + x),
 which the body closes everywhere, so that (7) is the linear bilateral law (square.bilateral_solution). There
 c_n g_0 computed to round-off leaves ‖F‖ above the target 1e-10 ‖L‖. Prints (rank 0, JSON) per case the

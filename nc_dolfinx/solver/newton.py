@@ -1,243 +1,39 @@
-"""Nonlinear solver for (7): PETSc SNES configured through an options prefix.
+"""The Newton driver for (7): PETSc SNES configured through an options prefix.
 
 (7) minimises the convex, C¹ energy (``forms.energy``)
     Π(u) = ½a(u,u) − L(u) + ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1},   F = ∇Π,  J = ∇²Π
 (generalised for m_n < 2). SNES gets Π as its objective; the line search (a precheck) minimises Π along
 each Newton step, checked against the objective, so no step increases Π. Every CG iterate started from
-zero is a descent direction of Π (∇Π·d = −dᵀJd < 0), so inexact (Eisenstat–Walker) steps and Krylov
-solves stopped at their iteration limit are safe steps too. On a cold start with a gap and m_n = 1 the
-first step may be the bilateral one (all of Γ_C in contact, see _bilateral_predictor). A failed SNES solve
-is retried with a refreshed preconditioner, by continuation in c_n, with a stronger preconditioner, then
-by load continuation, before it ends the run; a solve whose contact zone creeps (10 steps in a row cut by
-the line search) goes to the continuation in c_n first (see _retry_c_n_continuation); a solve whose
-residual stalls or fails within its own round-off (a stiff penalty with a gap) ends there, converged (see
-NonlinearSolver._within_roundoff).
-
-Options are layered (later wins): the preset's defaults, the problem file's ``[solver] petsc_options``,
-then ``-snes_*``/``-ksp_*``/``-pc_*`` flags from the command line. All are written into the PETSc
-options database under the prefix ``nc_`` and read by ``setFromOptions``, so any PETSc option works,
-as in dolfiny. The preset ``auto`` (the default) is resolved when the mesh is known (see ``choose_preset``);
-``preset`` itself is an option of the same layers (``-preset iterative`` on the command line).
+zero is a descent direction of Π (∇Π·d = −dᵀJd < 0), so inexact (Eisenstat–Walker, :mod:`.forcing`) steps
+and Krylov solves stopped at their iteration limit are safe steps too. On a cold start with a gap and
+m_n = 1 the first step may be the bilateral one (all of Γ_C in contact, see _bilateral_predictor). A failed
+SNES solve goes to the recovery strategies (:mod:`.recovery`); a solve whose residual stalls or fails
+within its own round-off (a stiff penalty with a gap) ends there, converged (see
+NonlinearSolver._within_roundoff). The linear solver inside each step and the options' layers are
+:mod:`.linear`'s.
 """
 import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
-import ufl
 from ufl.algorithms.apply_algebra_lowering import apply_algebra_lowering
 from ufl.algorithms.apply_derivatives import apply_derivatives
 from ufl.algorithms.map_integrands import map_integrand_dags
 from ufl.corealg.multifunction import MultiFunction
+import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
-from . import dolfinx_versions as versions
-from .errors import InputError
-from .petsc_options import PREFIX, check_petsc_option, set_petsc_options, together
-
-
-NEWTON_DEFAULTS = {
-    "snes_type": "newtonls",
-    # The line search is the precheck's minimisation of Π along the step (see _line_minimisation); SNES
-    # then takes the step it chose. PETSc's bt on the objective cannot end a solve at these tolerances: it
-    # compares two values of Π, whose difference near the solution (~‖F‖²) lies below Π's round-off
-    # (~1e-16 |Π|): it failed at ‖F‖ ≈ 1e-11 ‖F_0‖ (measured). Slopes F·y stay accurate.
-    "snes_linesearch_type": "basic",
-    "snes_rtol": 1e-10,
-    "snes_stol": 0.0,
-    "snes_max_it": 50,
-    # PETSc stops when ‖F‖ > 1e4 ‖F_0‖; on a stiff foundation ‖F‖ legitimately grows by c_n times the
-    # first step's penetration while Π decreases (the iterative preset's DIVERGED_DTOL of issue 13).
-    "snes_divergence_tolerance": -1.0,
-    # A Krylov solve that stops at its iteration limit still returns a descent direction of Π: take the
-    # step (the line search guards it) and refresh the preconditioner, instead of ending the solve.
-    "snes_max_linear_solve_fail": 1000,
-}
-# The solver's own choices, options of the same layers (``-pc_refresh_misfit 1``, ``-line_minimisation
-# false`` on the command line, ``[solver] petsc_options``); not passed to PETSc.
-OWN_DEFAULTS = {
-    "line_minimisation": True,     # the line search of _line_minimisation (false: SNES's own, on Π for bt)
-    "pc_refresh_misfit": 0.3,      # see the preconditioner refresh below
-    "pc_refresh_growth": 3.0,      # see the preconditioner refresh below
-    "ew_rtol0_unsupported": 0.3,   # see _first_krylov_tolerance
-    "fallbacks": True,             # false: a failed SNES solve ends the run at once
-    # Unless an snes_atol is given, ‖F‖ <= atol_of_load ‖L‖ also counts as converged: with a good initial
-    # guess (nested iteration) snes_rtol relative to ‖F(u_0)‖ can lie below round-off on large meshes.
-    "atol_of_load": 1e-10,
-    "bilateral_predictor": True,   # see _bilateral_predictor
-    "roundoff_factor": 10.0,       # see _within_roundoff (0: the target alone ends a solve)
-    "creeping_steps": 10,          # see _Creeping (0: never)
-}
-
-# hypre's BoomerAMG, the iterative preset's preconditioner (cold and warm starts, 2D and 3D): classical AMG
-# with low-complexity settings (HMIS coarsening, extended+i interpolation truncated to 4 entries per row,
-# aggressive coarsening on the first level(s)), scalar AMG on the matrix as it is, without the rigid-body
-# modes (hypre's nodal coarsening and interpolation of them set up 4x slower). The strength threshold is
-# hypre's recommendation per dimension, 0.25 in 2D and 0.5 in 3D. The smoother is PETSc's default for it,
-# symmetric hybrid Gauss–Seidel, in 2D; in 3D a Chebyshev polynomial (parallel as it is serial) with two
-# levels of aggressive coarsening: more CG iterations, but each ~40 % cheaper and the set-up ~40 % faster.
-# In 2D the aggressive level takes a point at distance 2 as strongly connected only through 2 paths
-# (hypre's agg_num_paths; 1 by default), so it coarsens less aggressively, and CG needs half the
-# iterations: one solve to Newton's accuracy on the family's square 16 instead of 35 (0.42 s instead of
-# 0.57 s), on its two materials 19 instead of 39; 3 or 4 paths took twice the time; in 3D 25 instead of
-# 35 iterations in the same time, so 1 path is kept there (benchmarks/README.md, "Two paths").
-# Measured (benchmarks/README.md, "BoomerAMG and the forcing terms", benchmarks/amg.py: one linear solve to
-# Newton's accuracy) against GAMG set up as DOLFINx's elasticity demo does (below): the family's 3D cube 2.0 s
-# instead of 3.5 s serially, the 2D square 0.62 s instead of 1.46 s; GAMG needs 51–58 CG iterations on the
-# two-material bodies where BoomerAMG needs 37–40; and on Plaza-refined meshes (the adaptive loop's nested
-# levels) PETSc 3.18's GAMG aggregates poorly (operator complexity 3.1 instead of 1.3: 9.7 s against 1.7 s
-# on the cube refined once).
-HYPRE = {"pc_hypre_type": "boomeramg", "pc_hypre_boomeramg_coarsen_type": "HMIS",
-         "pc_hypre_boomeramg_interp_type": "ext+i", "pc_hypre_boomeramg_P_max": 4}
-HYPRE_BY_DIM = {2: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boomeramg_agg_num_paths": 2,
-                    "pc_hypre_boomeramg_strong_threshold": 0.25},
-                3: {**HYPRE, "pc_hypre_boomeramg_agg_nl": 2, "pc_hypre_boomeramg_strong_threshold": 0.5,
-                    "pc_hypre_boomeramg_relax_type_all": "Chebyshev"}}
-# Smoothed-aggregation AMG for elasticity (``-pc_type gamg``, or Trilinos ML: ``-pc_type ml``), set up as in
-# DOLFINx's elasticity demo: the rigid-body near-nullspace (on the matrices, see NonlinearSolver), the SPD
-# flag, Chebyshev/Jacobi smoothers with CG-based eigenvalue estimates (CG is the right estimator for an
-# SPD operator and needs fewer steps than GMRES), and the interpolation kept when the preconditioning
-# matrix is refreshed within a level (only the Galerkin products and smoothers are redone). ML sets up
-# fast on refined meshes too, but PETSc 3.18's ML wrapper can fail in parallel (MatWrapML_MPIAIJ: "New
-# nonzero caused a malloc" on one rank, seen on manufactured3d at 2 ranks), which no rank recovers from.
-SMOOTHERS = {"mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi",
-             "mg_levels_esteig_ksp_type": "cg", "mg_levels_ksp_chebyshev_esteig_steps": 10}
-GAMG = {"pc_gamg_type": "agg", "pc_gamg_agg_nsmooths": 1, "pc_gamg_reuse_interpolation": True,
-        # GAMG would hand the smoothers the eigenvalue estimates of its prolongator smoothing, which a
-        # refresh with reused interpolation does not redo: after K -> K + 1e4 M_Γ CG then ran 10000
-        # iterations (or stopped on an indefinite PC); with Chebyshev's own CG estimates 29 (fresh set-up:
-        # 22, at 3x the set-up time).
-        "pc_gamg_use_sa_esteig": False}
-ML = {"pc_ml_reuse_interpolation": True}  # ML reads the rigid-body modes from the matrix (pc_ml_nullspace auto)
-
-
-def preconditioner_settings(pc_type, dim):
-    """The settings a preconditioner comes with, whichever layer chose it: BoomerAMG's for the dimension,
-    GAMG's and ML's (DOLFINx's elasticity demo), none for others."""
-    return {"hypre": HYPRE_BY_DIM[dim], "gamg": {**SMOOTHERS, **GAMG}, "ml": {**SMOOTHERS, **ML}}.get(pc_type, {})
-
-
-# Both presets run CG on the Jacobian J = K + j_n'(u) (SPD); the preconditioner is built from J at the
-# initial guess and refreshed when it no longer fits (see NonlinearSolver).
-PRESETS = {
-    # a Cholesky factorisation (MUMPS, AMF ordering: the fastest measured here); exact Newton steps
-    "direct": {"ksp_type": "cg", "ksp_rtol": 1e-10, "pc_type": "cholesky",
-               "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_7": 2},
-    # Inexact Newton with Eisenstat–Walker's forcing terms (version 3, applied by Forcing). The first Krylov
-    # solve to 3e-2 (rtol0; PETSc's default 0.3): on a cold start the first step is nearly the answer when
-    # the Jacobian already sees the foundation (m_n = 1, see closed_jacobian), and a loose one cost 2-4 more
-    # Newton steps on the stiff members of benchmarks/family.py. CG measures the true residual ‖F + J y‖
-    # (as cheap in CG as its preconditioned norm), so that Forcing's tolerances and Newton's ‖F‖ speak of
-    # the same quantity.
-    "iterative": {"ksp_type": "cg", "ksp_rtol": 1e-10, "ksp_norm_type": "unpreconditioned", "pc_type": "hypre",
-                  "snes_ksp_ew": True, "snes_ksp_ew_version": 3, "snes_ksp_ew_rtol0": 0.03},
-}
-PRESET_NAMES = ("auto", *PRESETS)
-PRECONDITIONER_MATRICES = ("auto", "bulk", "jacobian")
-
-
-def solver_options(preset="auto", problem_options=None, cli_options=None):
-    """The user's option layers over the preset's name (``preset`` may itself be overridden by a layer);
-    the preset's options go under them in ``NonlinearSolver``, once the problem is known."""
-    options = {"preset": preset}
-    options.update(problem_options or {})
-    options.update(cli_options or {})
-    return options
-
-
-def choose_preset(dim, dofs, warm_start):
-    """The linear strategy of ``preset = "auto"``, from what is known before solving (measured in
-    benchmarks/README.md, "auto"):
-
-    - 3D: CG + AMG (BoomerAMG, see HYPRE_BY_DIM) — a factorisation of the whole stiffness costs far more time and
-      memory there.
-    - 2D, up to COLD_DIRECT_MAX_DOFS: MUMPS Cholesky; both take < 0.05 s there, and exact Newton steps
-      make the Newton counts independent of the partition.
-    - 2D with a warm start (the adaptive loop's nested levels), up to WARM_DIRECT_MAX_DOFS: MUMPS
-      Cholesky of J(u_0), nearly the final Jacobian: 1–4 CG iterations per level (nested levels of the
-      family's square: 0.17–0.45 x the linear floor; spot checks with BoomerAMG 0.43–0.47 x); with GAMG
-      the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct (corner: within 10 %).
-    - otherwise (2D cold starts, large meshes): CG + AMG, 1.4–2.8x faster than the factorisation on a
-      cold start from 1e4 dofs on (block, corner, the family square).
-    The number of ranks did not change these choices in the measurements.
-    """
-    if dim == 2 and (dofs <= COLD_DIRECT_MAX_DOFS or (warm_start and dofs <= WARM_DIRECT_MAX_DOFS)):
-        return "direct"
-    return "iterative"
-
-
-COLD_DIRECT_MAX_DOFS = 10_000
-WARM_DIRECT_MAX_DOFS = 1_000_000
-
-
-def resolve_options(options, dim, dofs, warm_start):
-    """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved by
-    choose_preset, under the settings of the preconditioner in force (preconditioner_settings). The user's
-    values are checked first (_check_own_option, check_petsc_option: InputError), numbers as parsed."""
-    user = {k.lstrip("-"): v for k, v in options.items()}
-    preset = str(user.pop("preset", "auto"))
-    if preset not in PRESET_NAMES:
-        raise InputError(f"solver preset must be one of {', '.join(PRESET_NAMES)}, got '{preset}'")
-    name = choose_preset(dim, dofs, warm_start) if preset == "auto" else preset
-    resolved = {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name]}
-    for key in user:
-        if key in OWN_DEFAULTS:
-            _check_own_option(key, user[key])
-        else:
-            user[key] = check_petsc_option(key, user[key])
-    options = {**resolved, **user}
-    return name, {**preconditioner_settings(options.get("pc_type"), dim), **options}
-
-
-def _check_own_option(key, value):
-    """The solver's own options are not PETSc's, so PETSc does not check them: a number ≥ 0 or a flag."""
-    if isinstance(OWN_DEFAULTS[key], bool):
-        if value is not None and str(value).lower() not in ("true", "false", "1", "0", "yes", "no", "on", "off"):
-            raise InputError(f"solver option {key} must be true or false, got '{value}'")
-        return
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = float("nan")
-    if not number >= 0:
-        raise InputError(f"solver option {key} must be a number >= 0, got '{value}'")
-
-
-def _flag(value):
-    """An option's truth value: true/false/1/0/yes/no (None: set without a value, i.e. true)."""
-    return value is None or str(value).lower() in ("true", "1", "yes", "on")
-
-
-def rigid_body_modes(V):
-    """Near-nullspace of elasticity on the vector space V: the d translations and d(d−1)/2 infinitesimal
-    rotations (2D: 3 modes, 3D: 6), d = the number of displacement components.
-
-    The vectors live on the communicator of V's index map, which is freed with V: V must outlive the
-    null space (BoomerAMG reads their communicator at its set-up; after V was freed it crashed in
-    MPI_Comm_size, GAMG did not notice). NonlinearSolver keeps V through its ``u``."""
-    index_map = V.dofmap.index_map
-    bs = V.dofmap.index_map_bs
-    x = V.tabulate_dof_coordinates()[:index_map.size_local, :bs]
-    rotations = [(i, j) for i in range(bs) for j in range(i + 1, bs)]
-    vectors = [PETSc.Vec().createMPI((index_map.size_local * bs, PETSc.DETERMINE), bsize=bs, comm=V.mesh.comm)
-               for _ in range(bs + len(rotations))]
-    arrays = [v.array.reshape(-1, bs) for v in vectors]
-    for a in arrays:
-        a[:] = 0.0
-    for k in range(bs):
-        arrays[k][:, k] = 1.0
-    for a, (i, j) in zip(arrays[bs:], rotations):  # rotation in the (x_i, x_j) plane
-        a[:, i] = -x[:, j]
-        a[:, j] = x[:, i]
-    for i, vector in enumerate(vectors):  # Gram–Schmidt, as dolfinx.la.orthonormalize of DOLFINx 0.5
-        for previous in vectors[:i]:
-            vector.axpy(-vector.dot(previous), previous)
-        vector.normalize()
-    return PETSc.NullSpace().create(vectors=vectors, comm=V.mesh.comm)
+from .. import dolfinx_versions as versions
+from ..errors import InputError
+from .forcing import Forcing
+from .linear import OWN_DEFAULTS, PRECONDITIONER_MATRICES, option_is_true, resolve_options, rigid_body_modes
+from .petsc_options import PREFIX, set_petsc_options, together
+from .recovery import Recoveries
 
 
 @dataclass
@@ -297,9 +93,6 @@ def closed_jacobian(jacobian):
 # (c) J and P differ by more than pc_refresh_misfit along the last Newton step y: |yᵀ(J − P)y| / yᵀPy. (c) is
 # what fires on the family's foundations with m_n > 1 after the first step from J(0) = K (misfit 2.6–44:
 # CG then needed 41–47 iterations in all instead of 55–80). All are global numbers: every rank decides alike.
-# MUMPS's INFOG(1) when an internal array sized from the analysis's estimate is too small (-9, the main
-# workspace S, is the one seen here); for each, MUMPS's user guide advises a larger ICNTL(14).
-MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -12, -14, -17, -20)
 KRYLOV_MIN_ITS = 20
 # Line minimisation (see _line_minimisation).
 WOLFE_ETA = 0.5
@@ -308,72 +101,6 @@ OBJECTIVE_ROUNDOFF = 1e-10
 # Round-off of the residual (see _within_roundoff): checked when ‖F‖ no longer falls below STALL_RATIO times
 # its last value, or when a solve fails.
 STALL_RATIO = 0.5
-# The c_n continuation (a fallback, see _retry_c_n_continuation): the first stage's foundation against the
-# body's stiffness, and the factor from one stage to the next.
-C_N_SOFT = 0.03
-C_N_CONTINUATION_FACTOR = 100.0
-
-
-class Forcing:
-    """The Krylov tolerance η_k of each Newton step (inexact Newton: ‖F_k + J_k y‖ <= η_k ‖F_k‖), in place of
-    PETSc's own Eisenstat–Walker code and with its parameters (``-snes_ksp_ew_version``, ``_rtol0``,
-    ``_rtolmax``, ``_gamma``, ``_alpha``, ``_alpha2``, ``_threshold``), plus two rules that read the
-    *remainder* of the last step, ρ = ‖F_k − (F_{k−1} − J_{k−1} y)‖: what its linear model did not
-    predict (known when the step was taken in full):
-
-    - Finish: if Newton's quadratic convergence from there, ρ (‖F_k‖/‖F_{k−1}‖)², leaves the next step's
-      remainder below half the target, the next system is solved to half the target, and that step ends
-      the solve. Where the law is linear across the steps (m_n = 1 with a settled contact set) ρ ≈ 0:
-      2 Newton steps instead of 4–5 on the family's m_n = 1 members; on the others the last step no longer
-      stops just above the target (seen: 1.6e-12 against 2e-13, one more Newton step).
-    - Otherwise η_k <= ρ/‖F_{k−1}‖ (Eisenstat–Walker's choice 1): no looser than the last step's
-      nonlinearity warrants.
-
-    No system is solved beyond half the target (the Krylov solve's absolute tolerance, in the true residual
-    the iterative preset measures): version 3's guard against oversolving, aimed below the target."""
-
-    def __init__(self, params):
-        self.params = params  # SNES.getParamsEW()
-        self.rtol0, self.target, self.last = params["rtol_0"], 0.0, None
-
-    def start(self, target):
-        """A new SNES solve towards ‖F‖ <= target."""
-        self.target, self.last = target, None
-
-    @property
-    def absolute(self):
-        """The Krylov solve's absolute tolerance: half the Newton target."""
-        return 0.5 * self.target
-
-    def tolerance(self, fnorm, remainder=None):
-        """η_k for the step from an iterate with ‖F‖ = ``fnorm``; ``remainder``: ρ of the step that led
-        there, if it was taken in full (else None)."""
-        p = self.params
-        if self.last is None:
-            eta = self.rtol0
-        else:
-            f_prev, eta_prev = self.last
-            eta = self._eisenstat_walker(fnorm, f_prev, eta_prev, remainder)
-            if remainder is not None:
-                if remainder * (fnorm / f_prev) ** 2 <= self.absolute:
-                    eta = 0.0  # the absolute tolerance decides
-                eta = min(eta, remainder / f_prev)
-        eta = min(eta, p["rtol_max"])
-        self.last = (fnorm, eta)
-        return eta
-
-    def _eisenstat_walker(self, fnorm, f_prev, eta_prev, remainder):
-        """PETSc's versions 1–3 (SNESKSPSetParametersEW), version 3 without its oversolving guard."""
-        p = self.params
-        if p["version"] == 1:
-            if remainder is None:
-                return eta_prev
-            eta, guard = remainder / f_prev, eta_prev ** p["alpha2"]
-        else:
-            eta, guard = p["gamma"] * (fnorm / f_prev) ** p["alpha"], p["gamma"] * eta_prev ** p["alpha"]
-            if p["version"] == 3:
-                return min(self.rtol0, max(eta, guard))
-        return max(eta, guard) if guard > p["threshold"] else eta
 
 
 def _check_finite(matrix_or_vector, message):
@@ -393,7 +120,7 @@ def _check_finite(matrix_or_vector, message):
         raise InputError(message)
 
 
-class NonlinearSolver:
+class NonlinearSolver(Recoveries):
     """SNES for (7): F(u) = K u + j_n(u, ·) − λ L = 0, J(u) = K + j_n'(u), homogeneous Dirichlet BCs.
 
     The bulk stiffness K and the load vector L are assembled once (with the Dirichlet rows of K set to
@@ -444,9 +171,7 @@ class NonlinearSolver:
 
     def _assemble_constant_parts(self, forms):
         """Compile the forms; assemble K (Dirichlet rows: identity) and L (Dirichlet rows: zero) once."""
-        self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(closed_jacobian(forms.j_n_jacobian))
-        self.contact_energy = fem.form(forms.contact_energy)
-        self.bilateral = (forms.bilateral_jacobian, forms.gap_load, forms.separation)  # compiled when used
+        self._use_contact_forms(forms)
         self.forms = forms  # (the c_n continuation builds its forms from them, when used)
         self.K = fem_petsc.assemble_matrix(fem.form(forms.a), bcs=self.bcs)
         self.K.assemble()
@@ -463,6 +188,13 @@ class NonlinearSolver:
         self.contact = versions.create_petsc_vector(self.j_n)
         self.b = versions.create_petsc_vector(self.j_n)
         self.work, self.trial, self.predicted = self.K.createVecRight(), versions.petsc_vec(self.u).copy(), self.K.createVecRight()
+
+    def _use_contact_forms(self, forms):
+        """Γ_C's forms of (7) (``forms``, or the c_n continuation's scaled ones), compiled: j_n, its Jacobian
+        with the kinks closed, the contact energy; the bilateral forms are compiled when used."""
+        self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(closed_jacobian(forms.j_n_jacobian))
+        self.contact_energy = fem.form(forms.contact_energy)
+        self.bilateral = (forms.bilateral_jacobian, forms.gap_load, forms.separation)
 
     def _create_snes(self):
         """SNES and its KSP configured from the options (a PETSc error there, or in the rehearsal of the
@@ -571,7 +303,7 @@ class NonlinearSolver:
             if self._bilateral_predictor(x, y):
                 self.predicted_full_step = False
                 return True
-        scaled = _flag(self.options["line_minimisation"]) and self._line_minimisation(x, y)
+        scaled = option_is_true(self.options["line_minimisation"]) and self._line_minimisation(x, y)
         self.predicted_full_step = not scaled
         self.cut_steps = self.cut_steps + 1 if scaled else 0
         limit = float(self.options["creeping_steps"])
@@ -807,7 +539,7 @@ class NonlinearSolver:
         cover, as in Hertz's problem) nothing is done, and Newton runs exactly as without it. Without a
         gap the first step already is the bilateral one (see closed_jacobian)."""
         bilateral_jacobian, gap_load, separation = self.bilateral
-        if bilateral_jacobian is None or not _flag(self.options["bilateral_predictor"]) or x.norm() > 0.0:
+        if bilateral_jacobian is None or not option_is_true(self.options["bilateral_predictor"]) or x.norm() > 0.0:
             return False
         x.copy(self.trial)
         self.trial.axpy(-1.0, y)
@@ -934,105 +666,6 @@ class NonlinearSolver:
 
     # Fallbacks after a failed SNES solve, in this order, each from the last good iterate. None costs
     # anything unless a solve fails.
-    def _retry_refreshed(self, x, stats, target, start):
-        """Rebuild P from J at the current iterate (a stale P is the cheap cause of a stall); if MUMPS ran
-        out of workspace, with a larger one."""
-        self._widen_mumps_workspace()
-        self.force_refresh = True
-        return self._snes_solve(x, stats, target)
-
-    def _widen_mumps_workspace(self):
-        """After a MUMPS factorisation stopped for lack of workspace, four times the margin MUMPS adds to its
-        estimate (ICNTL(14), in percent; default 20) for the next one. Seen on 3 ranks: the Cholesky
-        factorisation of a nested 3D level (6,591 dofs, tests/mpi/nested_level_3d.py) failed with INFOG(1)
-        = -9 at the first Newton step (KSP: DIVERGED_PC_FAILED), and every fallback failed the same way;
-        with ICNTL(14) = 50 it runs."""
-        pc = self.snes.getKSP().getPC()
-        if pc.getType() not in ("cholesky", "lu") or pc.getFactorSolverType() != "mumps":
-            return
-        factor = pc.getFactorMatrix()
-        if factor.getMumpsInfog(1) in MUMPS_WORKSPACE_ERRORS:
-            # an option, since MUMPS reads its controls anew when the factorisation is set up again
-            self.options["mat_mumps_icntl_14"] = 4 * max(factor.getMumpsIcntl(14), 20)
-            set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
-            pc.reset()
-
-    def _retry_stronger(self, x, stats, target, start):
-        """P = J at every Newton step and GMRES instead of CG (robust to a PC that is not SPD, as seen
-        with CG + GAMG on a 3D penalty problem)."""
-        self.mode, self.force_refresh = "jacobian", True
-        self._leave_cg()
-        return self._snes_solve(x, stats, target)
-
-    def _retry_c_n_continuation(self, x, stats, target, start):
-        """Continuation in c_n from the initial guess: the law with s·c_n, s from a soft foundation up by
-        C_N_CONTINUATION_FACTOR per stage, each stage solved from the last, then c_n itself. A stiff foundation
-        and a contact zone that the first step does not cover (a cantilever sagging onto it: its tip
-        touches first) make Newton's line search stop each step where the next points touch; with c_n/E =
-        1e9 the zone grew by a few nodes a step and every other fallback failed (177–242 Newton steps, a
-        10 × 1 cantilever; `benchmarks/extremes.py`). On a soft foundation the zone settles in a few steps,
-        and each stiffer stage starts from nearly its own contact zone (the same cantilever: 9 creeping steps,
-        then 5 stages and c_n itself in 34 Newton steps). The stages' forms (c_n times a Constant) are
-        compiled on the first use. Skipped where c_n is soft already (s would be >= 1)."""
-        scale = fem.Constant(self.u.function_space.mesh, PETSc.ScalarType(1.0))
-        s = self._soft_c_n_scale()
-        if s >= 1.0:
-            return False
-        scaled = self.forms.with_c_n_scale(scale)
-        original = (self.j_n, self.j_n_jacobian, self.contact_energy, self.bilateral)
-        self.j_n, self.j_n_jacobian = fem.form(scaled.j_n), fem.form(closed_jacobian(scaled.j_n_jacobian))
-        self.contact_energy = fem.form(scaled.contact_energy)
-        self.bilateral = (scaled.bilateral_jacobian, scaled.gap_load, scaled.separation)
-        start.copy(x)
-        self.creeping_check = False  # (each stage runs to its end)
-        try:
-            while s < 1.0:
-                scale.value = s
-                self.force_refresh, self.bilateral_candidate = True, x.norm() == 0.0
-                if not self._snes_solve(x, stats, target):
-                    return False
-                s *= C_N_CONTINUATION_FACTOR
-        finally:
-            self.j_n, self.j_n_jacobian, self.contact_energy, self.bilateral = original
-        self.force_refresh = True
-        return self._snes_solve(x, stats, target)
-
-    def _soft_c_n_scale(self):
-        """The scale s of the first stage of the c_n continuation: s·c_n against the body's stiffness,
-        max_i (s C_ii / K_ii) with C = ∫_Γ_C c_n du_n v_n, equal to C_N_SOFT (on the cantilever of
-        _retry_c_n_continuation s·c_n = 2.5 E; cold solves there took 6 Newton steps with c_n = E, 9 with
-        10 E, 24 with 1e3 E)."""
-        C = fem_petsc.assemble_matrix(fem.form(self.forms.c_n_mass))  # (Γ_C's pattern only: no bcs)
-        C.assemble()
-        c, k = C.getDiagonal(), self.K.getDiagonal()
-        c.pointwiseDivide(c, k)
-        fem_petsc.set_bc(c, self.bcs)  # (the clamped dofs: zero)
-        ratio = c.max()[1]
-        for obj in (C, c, k):
-            obj.destroy()
-        return C_N_SOFT / ratio if ratio > 0.0 else 1.0
-
-    def _retry_continuation(self, x, stats, target, start, factor):
-        """Load continuation from the initial guess: increments of the load factor, halved on failure."""
-        start.copy(x)
-        last = x.copy()  # the last converged increment
-        done, step, final = self.load_factor - factor, factor / 4, self.load_factor
-        try:
-            while done < final - 1e-12:
-                self.load_factor = min(done + step, final)
-                if self._snes_solve(x, stats, target * self.load_factor / final):
-                    done = self.load_factor
-                    x.copy(last)
-                elif step < factor / 64:
-                    return False
-                else:
-                    last.copy(x)
-                    step /= 2
-            return True
-        finally:
-            self.load_factor = final
-            last.destroy()
-
     def _solve_load_step(self, x, stats, factor):
         """Solve at the current load factor from x (the previous step's solution); ``factor``: its
         increment. Returns the fallbacks used."""
@@ -1043,10 +676,10 @@ class NonlinearSolver:
         # (m_n = 1 only, where the bilateral forms exist: with m_n >= 2 the stages of the continuation took
         # 2-3 times the Newton steps of the creeping solve itself, 20-35 on the stiff members of extremes.py)
         self.crept = False
-        self.creeping_check = _flag(self.options["fallbacks"]) and self.bilateral[0] is not None
+        self.creeping_check = option_is_true(self.options["fallbacks"]) and self.bilateral[0] is not None
         try:
             self.bilateral_candidate = x.norm() == 0.0  # see _bilateral_predictor
-            if self._snes_solve(x, stats, target) or not _flag(self.options["fallbacks"]):
+            if self._snes_solve(x, stats, target) or not option_is_true(self.options["fallbacks"]):
                 if stats.converged_reason.startswith("CONVERGED"):
                     return used
                 raise InputError(f"SNES diverged ({stats.converged_reason}) after {stats.newton_iterations} "

@@ -21,9 +21,9 @@ import re
 import numpy as np
 from petsc4py import PETSc
 
-from . import dolfinx_versions as versions
-from .dolfinx_versions import libpetsc
-from .errors import InputError, brief_text
+from .. import dolfinx_versions as versions
+from ..dolfinx_versions import libpetsc
+from ..errors import InputError, brief_text
 
 PREFIX = "nc_"  # the solver's options prefix: -ksp_type on the command line is -nc_ksp_type in PETSc
 
