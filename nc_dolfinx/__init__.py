@@ -33,7 +33,7 @@ try:
     from . import dolfinx_versions  # noqa: F401,E402 (first: it checks the installed DOLFINx's version)
 except UnsupportedDolfinx as err:
     if os.path.basename(sys.argv[0]) in ("-m", "run_cases.py", "nc-dolfinx"):  # the command line
-        print(f"nc_dolfinx: error: {err}", file=sys.stderr, flush=True)
+        os.write(2, f"nc_dolfinx: error: {err}\n".encode())  # one write: mpirun interleaved two ranks' print()
         sys.exit(1)
     raise
 

@@ -235,3 +235,33 @@ def test_internal_error_on_one_rank_ends_every_rank(tmp_path, nprocs, rank):
     s = summary(out)
     assert s["status"] == "failed" and "internal error" in s["reason"] and s["levels"] == 2, s
     assert not leftovers(out)
+
+
+def test_an_interrupt_swallowed_by_a_finaliser_prints_no_traceback():
+    """A signal during a weakref callback or ``__del__`` raises our KeyboardInterrupt where Python can only
+    print it ("Exception ignored in …" with a traceback: seen once under load in test_interrupt_keeps_
+    finished_levels). The signal is recorded and stops the run at the next check, so the print is dropped;
+    any other unraisable exception still goes to the hook that was there before, which is put back."""
+    import sys
+    import types
+
+    from mpi4py import MPI
+
+    from nc_dolfinx import interrupt
+
+    seen, before = [], sys.unraisablehook
+    sys.unraisablehook = seen.append
+    try:
+        previous = interrupt.install(MPI.COMM_SELF)
+        try:
+            interrupt._received.append(signal.SIGINT)
+            for error in (KeyboardInterrupt("SIGINT"), ValueError("a real one")):
+                sys.unraisablehook(types.SimpleNamespace(exc_type=type(error), exc_value=error, exc_traceback=None,
+                                                         err_msg="Exception ignored in", object=None))
+        finally:
+            interrupt.restore(previous)
+            interrupt._received.clear()
+        assert sys.unraisablehook == seen.append
+    finally:
+        sys.unraisablehook = before
+    assert [u.exc_type for u in seen] == [ValueError]
