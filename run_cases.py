@@ -5,7 +5,7 @@ See ``python3 run_cases.py --help``; the same as ``python3 -m nc_dolfinx``.
 """
 import sys
 
-from nc_dolfinx.cli import main
+from nc_dolfinx.cli.command_line import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -40,7 +40,7 @@ df.set_log_level(df.LogLevel.WARNING)
 
 NU = 0.3
 DIRICHLET, NEUMANN, CONTACT = 1, 2, 3
-CONTACT_DEGREE = 8  # as nc_dolfinx.forms.CONTACT_QUADRATURE_DEGREE
+CONTACT_DEGREE = 8  # as nc_dolfinx.physics.forms.CONTACT_QUADRATURE_DEGREE
 
 GAMG_OPTIONS = {"ksp_type": "cg", "ksp_rtol": 1e-10, "pc_type": "gamg", "pc_gamg_type": "agg",
                 "pc_gamg_agg_nsmooths": 1, "mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi"}

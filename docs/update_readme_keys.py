@@ -10,7 +10,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-from nc_dolfinx.schema import reference_markdown  # noqa: E402
+from nc_dolfinx.problem.schema import reference_markdown  # noqa: E402
 
 START, END = "<!-- schema:start -->", "<!-- schema:end -->"
 readme = ROOT / "README.md"

@@ -38,19 +38,22 @@ except UnsupportedDolfinx as err:
     raise
 
 from .adaptive import AdaptSettings, Level, Result, Solution, adapt, solve
-from .binding import Fields, bind, build_domain
-from .cases import case_names, case_path, case_titles
 from .errors import InputError, UnsupportedDolfinx
-from .estimator import CELL_DEGREE, CONTACT_DEGREE, Estimate, assemble_cellwise, estimate, patch_sum
-from .forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure
+from .estimator.indicators import CELL_DEGREE, CONTACT_DEGREE, Estimate, assemble_cellwise, estimate, patch_sum
+from .estimator.marking import mark
 from .log import quiet_compilers, show_progress
-from .marking import mark
-from .meshes import Domain, box, from_dolfinx, from_gmsh, from_gmsh_model, rectangle
-from .problem import Problem, load_problem
-from .physics import lame, normal_stress, sigma
-from .quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
-from .reference import compare_with_reference, hertz_line_contact, hertz_sphere_contact
-from .refinement import refine, transfer
+from .mesh.builtin import box, rectangle
+from .mesh.domain import Domain
+from .mesh.gmsh_io import from_gmsh, from_gmsh_model
+from .mesh.refinement import refine, transfer
+from .mesh.tagged import from_dolfinx
+from .physics.binding import Fields, bind, build_domain
+from .physics.elasticity import lame, normal_stress, sigma
+from .physics.forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure
+from .physics.quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
+from .physics.reference import compare_with_reference, hertz_line_contact, hertz_sphere_contact
+from .problem.cases import case_names, case_path, case_titles
+from .problem.problem import Problem, load_problem
 
 quiet_compilers()
 

@@ -17,8 +17,12 @@ from mpi4py import MPI
 
 from dolfinx import fem
 
-from . import dolfinx_versions as versions, estimator, forms, marking, quantities, refinement, schema
-from .binding import bind
+from . import dolfinx_versions as versions
+from .estimator import indicators, marking
+from .mesh import refinement
+from .physics import forms, quantities
+from .physics.binding import bind
+from .problem import schema
 from .errors import InputError
 from .solver import NonlinearSolver, SolveStats, solver_options
 
@@ -133,7 +137,7 @@ class Level:
     the ``marked`` cells and, on the last level, the ``stop_reason``."""
     number: int
     solution: Solution
-    estimate: estimator.Estimate
+    estimate: indicators.Estimate
     row: dict = field(default_factory=dict)
     marked: object = None          # local indices of the owned cells to refine (adaptive), else None
     stop_reason: str = None        # set on the last level: levels | max_dofs | tol | rtol
@@ -174,7 +178,7 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     settings = settings or AdaptSettings.from_problem(problem)
     t0 = time.perf_counter()
     if domain is None:
-        from .binding import build_domain
+        from .physics.binding import build_domain
         domain = build_domain(problem, comm or MPI.COMM_WORLD)
     times = {"mesh": time.perf_counter() - t0}  # then, on later levels, the refinement that made the mesh
     history, previous, eta0 = [], None, None
@@ -184,7 +188,7 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
                          None if number == 0 else 1)
         times["solve"] = time.perf_counter() - t
         t = time.perf_counter()
-        est = estimator.estimate(solution.u, solution.fields, **estimator_options(problem))
+        est = indicators.estimate(solution.u, solution.fields, **estimator_options(problem))
         times["estimate"] = time.perf_counter() - t
         eta0 = est.totals["eta"] if eta0 is None else eta0
         row = _row(number, domain, solution, est)

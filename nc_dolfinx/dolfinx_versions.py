@@ -54,7 +54,7 @@ check_version()  # before anything below touches an API that differs
 def keep_quiet_about_unused_options():
     """PETSc 3.22 and 3.25 (0.9, 0.11) list every option nobody read when the process ends; the solver
     sets options of presets it may not use, and the command line checks the user's own options itself
-    (:mod:`nc_dolfinx.petsc_options`), so the list is noise. A user's own ``-options_left`` wins."""
+    (:mod:`nc_dolfinx.solver.petsc_options`), so the list is noise. A user's own ``-options_left`` wins."""
     from petsc4py import PETSc
     if not PETSc.Options().hasName("options_left"):
         PETSc.Options().setValue("options_left", "no")
@@ -164,7 +164,7 @@ def colliding_cell_pairs(msh_a, msh_b):
 
 
 def create_mesh_keeping_ranks(comm, cells, x, domain_like, destinations):
-    """0.5.2 only (see :mod:`nc_dolfinx.refinement`): the mesh of these owned ``cells`` (global node
+    """0.5.2 only (see :mod:`nc_dolfinx.mesh.refinement`): the mesh of these owned ``cells`` (global node
     numbers) and owned nodes ``x``, each cell sent to the ranks of its row of ``destinations`` (an
     adjacency list: its own rank first, then those that ghost it)."""
     def partitioner(comm_, nparts, tdim, cell_topology, ghost_mode):
@@ -310,7 +310,7 @@ def interpolation_points(space):
 
 def cell_space_from_dofmap(msh, dim, layout_dofmap):
     """The DG0 space of ``dim`` components on ``msh`` with the given (identity) dofmap; see
-    :func:`nc_dolfinx.domain.cell_space`. Element construction differs in each version."""
+    :func:`nc_dolfinx.mesh.domain.cell_space`. Element construction differs in each version."""
     cell = msh.topology.cell_type
     if V05:
         element, cpp_element = _compiled_dg0_element(msh, dim)

@@ -2,7 +2,7 @@
 
 Every input is a small VALID problem file (a 2D ``mesh.rectangle`` of at most 8x6 cells or a 3D ``mesh.box``
 of at most 3x2x2 cubes, one or two levels) with at most ONE mutation (:func:`fuzz_inputs`, one strategy per
-family in :data:`FAMILIES`): a wrong type or range for a key of the schema (:data:`nc_dolfinx.schema.KEYS`),
+family in :data:`FAMILIES`): a wrong type or range for a key of the schema (:data:`nc_dolfinx.problem.schema.KEYS`),
 a misspelt key or section, a hostile name (key, section, parameter, group, region), a hostile expression, a
 hostile title, thousands-deep TOML nesting, a huge ``mesh.cells``, a hostile ``mesh.file`` or problem file,
 a bad command-line or PETSc option; or none (valid variations of the numbers and options). Each input
@@ -48,7 +48,7 @@ from hypothesis import HealthCheck
 from hypothesis import strategies as st
 
 from conftest import PYTHON, ROOT, mpirun_prefix
-from nc_dolfinx.schema import KEYS, SECTIONS, find_key
+from nc_dolfinx.problem.schema import KEYS, SECTIONS, find_key
 
 CANARY = "@CANARY@"  # replaced by the absolute path of TMP/CANARY when the input is written
 DIR = "@DIR@"        # replaced by the example's temporary folder

@@ -71,7 +71,7 @@ def test_legacy_fenics_reaches_the_same_solution(smoke):
         assert r["legacy_force_rdiff"] < RTOL, (r["problem"], r["legacy_force_rdiff"])
 
 
-# Both meshes carry an equispaced P1 coordinate element (nc_dolfinx.meshes.rectangle sets it as gmshio
+# Both meshes carry an equispaced P1 coordinate element (nc_dolfinx.mesh.builtin.rectangle sets it as gmshio
 # does): FFCx 0.5 would otherwise set the variant in place while compiling, refined meshes would inherit
 # it, and level 1 would compile its forms again.
 @pytest.mark.parametrize("problem", ["corner", "block"])

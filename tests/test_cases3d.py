@@ -8,8 +8,8 @@ import pytest
 import sympy as sp
 
 from conftest import ROOT, run
-from nc_dolfinx.physics import lame
-from nc_dolfinx.problem import read_toml
+from nc_dolfinx.physics.elasticity import lame
+from nc_dolfinx.problem.reading import read_toml
 
 import nc_dolfinx as nc
 

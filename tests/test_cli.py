@@ -247,7 +247,7 @@ def test_an_interrupt_swallowed_by_a_finaliser_prints_no_traceback():
 
     from mpi4py import MPI
 
-    from nc_dolfinx import interrupt
+    from nc_dolfinx.cli import interrupt
 
     seen, before = [], sys.unraisablehook
     sys.unraisablehook = seen.append

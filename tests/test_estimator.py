@@ -3,7 +3,7 @@
 The reference values are computed here in plain numpy, from our own triangulation of the domain (matched
 to DOLFINx's cells by their midpoints) and the nodal values of a prescribed P1 displacement u_h, so that
 σ(u_h) is constant per triangle and computed from the vertex values. Conventions (Definition 5 and the
-module docstring of nc_dolfinx/estimator.py): h_K = longest edge of K, h_E = |E|; interior edges carry
+module docstring of nc_dolfinx/estimator/indicators.py): h_K = longest edge of K, h_E = |E|; interior edges carry
 the full jump [σν], counted for both neighbours, each with its own h_K; on Neumann edges
 J = σν − g_E with g_E the mean of g over that edge; f_K the mean of f over K; ω_K the cells sharing a
 vertex with K; the law residual on Γ_C is c_n (u_hn − g_0)_+^{m_n} + σ_n(u_h), ν the outward normal and
@@ -24,10 +24,10 @@ from mpi4py import MPI
 
 from conftest import ROOT, run
 from dolfinx import fem, mesh as dmesh
-from nc_dolfinx.estimator import CONTACT_DEGREE, NAMES, estimate
+from nc_dolfinx.estimator.indicators import CONTACT_DEGREE, NAMES, estimate
 from nc_dolfinx import Problem, bind, build_domain
 from nc_dolfinx import dolfinx_versions as versions
-from nc_dolfinx.physics import lame
+from nc_dolfinx.physics.elasticity import lame
 
 RTOL = 1e-12
 NG_EDGE = 40
@@ -383,7 +383,7 @@ def test_neumann_means_are_per_edge(tmp_path):
 
 def test_symmetry_edges():
     """A symmetry line (x = 0) adds h_K ‖σ_t(u_h)‖²_E of its edges to η_2K (module docstring of
-    nc_dolfinx/estimator.py); every indicator of every cell as by hand, and the term is really there."""
+    nc_dolfinx/estimator/indicators.py); every indicator of every cell as by hand, and the term is really there."""
     data = dict(CASE_A, mesh=dict(CASE_A["mesh"], dirichlet=["right"], neumann=["top"], symmetry=["left"]),
                 loads=dict(CASE_A["loads"], g={"top": CASE_A["loads"]["g"]["top"]}))
     fields, V, (points, tris, side, spec) = setup_case("symmetry", None, data)
@@ -612,7 +612,7 @@ def test_parallel_matches_serial(case, tmp_path):
 
 @pytest.mark.parametrize("case, u_of_x, tol", [("A", u_case_a_kink, 1e-13), ("B", u_case_b_kink, 1e-6)])
 def test_contact_kink_split_edges(case, u_of_x, tol, tmp_path):
-    """The split integration of nc_dolfinx/estimator_kink.py (the 3D default) on edges: each edge is cut at
+    """The split integration of nc_dolfinx/estimator/kink.py (the 3D default) on edges: each edge is cut at
     the zero of u_hn − g_0 and the Gauss rule (CONTACT_DEGREE_SPLIT) applied on both pieces. Against the
     exact split integral: case A (m_n = 1, c_n = 2 + x, no gap) is a polynomial on each piece, exact to
     round-off (measured 0 and 0); case B (m_n = 1.5, quadratic c_n, affine gap) has (·)^{1.5} vanishing at

@@ -9,8 +9,8 @@ DOLFINx's cells by centroids. u_h is a prescribed P1 field (its vertex values), 
 per cell and computed from the vertex values. Quadrature: collapsed (Duffy) Gauss–Legendre products on
 triangles (n²) and tetrahedra (n³); kinked contact faces are clipped along the zero line of
 u_hn − g_0 (Sutherland–Hodgman) and the two polygons fan-triangulated — a decomposition different from
-the estimator's (nc_dolfinx/estimator_kink.py).
-Conventions (module docstring of nc_dolfinx/estimator.py): h_K = longest edge of K, h_F = longest edge of
+the estimator's (nc_dolfinx/estimator/kink.py).
+Conventions (module docstring of nc_dolfinx/estimator/indicators.py): h_K = longest edge of K, h_F = longest edge of
 F; interior faces carry the full jump [σν], counted for both neighbours with their own h_K; Neumann faces
 J = σν − g_F with g_F the mean of g over that face; symmetry faces add h_K ‖σ_t‖²_F to η_2K;
 σ_t = σν − σ_n ν; ω_K the cells sharing a vertex with K.
@@ -30,8 +30,8 @@ from test_estimator import (assert_close, computed_by_cell, prescribe, run_for_r
 from dolfinx import fem, mesh as dmesh
 from nc_dolfinx import Problem, bind, build_domain
 from nc_dolfinx import dolfinx_versions as versions
-from nc_dolfinx.estimator import NAMES, assemble_cellwise, estimate, patch_sum
-from nc_dolfinx.physics import lame, sigma
+from nc_dolfinx.estimator.indicators import NAMES, assemble_cellwise, estimate, patch_sum
+from nc_dolfinx.physics.elasticity import lame, sigma
 
 RTOL = 1e-12
 N_TRI = 24  # Duffy points per direction on triangles

@@ -15,7 +15,8 @@ import pytest
 from conftest import ROOT, summary
 from test_bad_input import FAST, assert_bad_input, cli
 
-from nc_dolfinx import expressions, schema
+from nc_dolfinx.problem import expressions
+from nc_dolfinx.problem import schema
 from nc_dolfinx.errors import InputError, brief, brief_text
 
 DEEP_SUM = "+".join(["x"] * (expressions.MAX_DEPTH + 1))  # a sum of n terms nests n deep

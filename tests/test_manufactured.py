@@ -11,8 +11,8 @@ import pytest
 import sympy as sp
 
 from conftest import ROOT, history, run_cli
-from nc_dolfinx.physics import lame
-from nc_dolfinx.problem import read_toml
+from nc_dolfinx.physics.elasticity import lame
+from nc_dolfinx.problem.reading import read_toml
 
 CASE = ROOT / "nc_dolfinx" / "cases" / "manufactured.toml"
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from nc_dolfinx.marking import doerfler_threshold, mark
+from nc_dolfinx.estimator.marking import doerfler_threshold, mark
 
 
 def brute_force_minimal_size(values, theta):

@@ -12,9 +12,11 @@ import subprocess
 import numpy as np
 import pytest
 from mpi4py import MPI
+from dolfinx import mesh as dmesh
 
 from conftest import PYTHON, ROOT, mpirun_prefix, run
-from nc_dolfinx import dolfinx_versions as versions, meshes
+from nc_dolfinx import dolfinx_versions as versions
+from nc_dolfinx.mesh import builtin, domain as mesh_domain, gmsh_io, tagged
 from nc_dolfinx.errors import InputError
 
 COMM = MPI.COMM_WORLD
@@ -27,14 +29,14 @@ def test_distance_to_a_triangle_in_3d():
     triangle = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
     points = np.array([[0.2, 0.2, 0.5], [2, 0, 0], [0.5, -1, 0], [1, 1, 1], [-1, -1, 0], [0.1, 0.3, 0]])
     expected = [0.5, 1.0, 1.0, np.sqrt(1.5), np.sqrt(2), 0.0]  # face, vertex, edge, edge, vertex, inside
-    got = meshes.distance_to_simplices(points, np.repeat(triangle[None], len(points), 0))
+    got = mesh_domain.distance_to_simplices(points, np.repeat(triangle[None], len(points), 0))
     np.testing.assert_allclose(got, expected, rtol=1e-14, atol=1e-15)
 
 
 def test_distance_to_a_segment_in_2d():
     segment = np.array([[0.0, 0], [2, 0]])
     points = np.array([[1.0, 1], [3, 0], [-1, -1], [0.5, 0]])
-    got = meshes.distance_to_simplices(points, np.repeat(segment[None], len(points), 0))
+    got = mesh_domain.distance_to_simplices(points, np.repeat(segment[None], len(points), 0))
     np.testing.assert_allclose(got, [1, 1, np.sqrt(2), 0], rtol=1e-14, atol=1e-15)
 
 
@@ -42,7 +44,7 @@ def test_distance_to_random_triangles_matches_sampling():
     """Exact distance <= distance to any sampled point of the triangle <= exact + sampling spacing."""
     rng = np.random.default_rng(3)
     vertices, points = rng.random((50, 3, 3)), rng.random((50, 3)) * 2 - 0.5
-    exact = meshes.distance_to_simplices(points, vertices)
+    exact = mesh_domain.distance_to_simplices(points, vertices)
     n = 60
     i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
     keep = i + j <= n
@@ -61,8 +63,8 @@ def test_matching_finds_a_big_simplex_behind_many_small_ones():
     vertices = np.concatenate([[[[0.0, 0], [10, 0]]], small])
     ids = np.array([7] + [3] * 20, dtype=np.int32)
     points = np.array([[9.9, 0], [10, 0.055], [5, 1], [9.9, 1e-12]])
-    np.testing.assert_array_equal(meshes.match_simplices(points, (vertices, ids), 1e-9),
-                                  [7, 3, meshes.UNTAGGED, 7])
+    np.testing.assert_array_equal(mesh_domain.match_simplices(points, (vertices, ids), 1e-9),
+                                  [7, 3, mesh_domain.UNTAGGED, 7])
 
 
 # --- built-in rectangle and box ---------------------------------------------------------------
@@ -70,7 +72,7 @@ def test_matching_finds_a_big_simplex_behind_many_small_ones():
 @pytest.mark.parametrize("gdim", [2, 3])
 def test_box_faces_cover_the_sides(gdim):
     low, high = np.array([0.0, -1, 2])[:gdim], np.array([2.0, 1, 5])[:gdim]
-    vertices, ids = meshes._box_faces(low, high)
+    vertices, ids = builtin._box_faces(low, high)
     assert vertices.shape == ({2: 4, 3: 12}[gdim], gdim, gdim)
     for group in range(1, 2 * gdim + 1):
         axis, side = divmod(group - 1, 2)
@@ -88,8 +90,8 @@ def test_cell_space_numbers_dofs_as_cells(tdim, dim):
     marking and the regions read as cell i's), here each cell's midpoint coordinates, assembled."""
     import ufl
     from dolfinx import mesh as dmesh
-    from nc_dolfinx.domain import cell_space
-    from nc_dolfinx.estimator import assemble_cellwise
+    from nc_dolfinx.mesh.domain import cell_space
+    from nc_dolfinx.estimator.indicators import assemble_cellwise
     msh = dmesh.create_unit_square(COMM, 3, 2) if tdim == 2 else dmesh.create_unit_cube(COMM, 2, 1, 2)
     V = cell_space(msh, dim)
     w, x = ufl.TestFunction(V), ufl.SpatialCoordinate(msh)
@@ -103,14 +105,14 @@ def test_cell_space_numbers_dofs_as_cells(tdim, dim):
 
 
 def test_box_domain():
-    domain = meshes.box(COMM, [[0, 0, 0], [2, 1, 3]], [2, 1, 3])
+    domain = builtin.box(COMM, [[0, 0, 0], [2, 1, 3]], [2, 1, 3])
     tags = domain.facet_tags
     assert domain.tdim == 3 and domain.num_cells() == 6 * 2 * 1 * 3 and domain.num_vertices() == 3 * 2 * 4
     assert domain.facet_groups == {"left": 1, "right": 2, "front": 3, "back": 4, "bottom": 5, "top": 6}
     assert domain.cell_groups == {"body": 1} and np.all(domain.region.x.array == 1)
     counts = np.bincount(tags.values, minlength=7)  # two triangles per square of a face
     np.testing.assert_array_equal(counts, [0, 2 * 3, 2 * 3, 2 * 6, 2 * 6, 2 * 2, 2 * 2])
-    midpoints = meshes.dmesh.compute_midpoints(domain.mesh, 2, tags.indices)
+    midpoints = dmesh.compute_midpoints(domain.mesh, 2, tags.indices)
     np.testing.assert_allclose(midpoints[tags.values == 6, 2], 3.0, rtol=0, atol=1e-14)
     if versions.V05:  # the re-wrap that keeps 0.5.2 from compiling twice (dolfinx_versions)
         assert domain.mesh.ufl_domain().ufl_coordinate_element().sub_elements()[0].variant() == "equispaced"
@@ -127,7 +129,7 @@ def test_box_domain():
 ])
 def test_rectangle_and_box_input(kind, corners, cells, expected):
     with pytest.raises(InputError) as err:
-        getattr(meshes, kind)(COMM, corners, cells)
+        getattr(builtin, kind)(COMM, corners, cells)
     assert expected in str(err.value)
 
 
@@ -138,7 +140,7 @@ def test_from_dolfinx_2d_names_and_defaults():
     from dolfinx import mesh as dmesh
     msh = dmesh.create_unit_square(COMM, 4, 2)
     bottom = dmesh.locate_entities_boundary(msh, 1, lambda x: np.isclose(x[1], 0))
-    domain = meshes.from_dolfinx(msh, dmesh.meshtags(msh, 1, bottom, np.full(len(bottom), 4, np.int32)),
+    domain = tagged.from_dolfinx(msh, dmesh.meshtags(msh, 1, bottom, np.full(len(bottom), 4, np.int32)),
                                  {8: "unused"})
     assert domain.facet_groups == {"4": 4, "unused": 8} and domain.cell_groups == {"body": 1}
     assert np.bincount(domain.facet_tags.values).tolist() == [2 * 2 + 4, 0, 0, 0, 4]
@@ -158,7 +160,7 @@ def test_from_dolfinx_refuses(make, expected):
     msh, facet_dim, cell_dim = make(dmesh)
     empty = np.zeros(0, dtype=np.int32)
     with pytest.raises(InputError) as err:
-        meshes.from_dolfinx(msh, dmesh.meshtags(msh, facet_dim, empty, empty), None,
+        tagged.from_dolfinx(msh, dmesh.meshtags(msh, facet_dim, empty, empty), None,
                             dmesh.meshtags(msh, cell_dim, empty, empty))
     assert str(err.value) == expected
 
@@ -167,9 +169,9 @@ def test_from_dolfinx_refuses_tag_zero_and_second_order():
     import ufl
     from dolfinx import mesh as dmesh
     msh = dmesh.create_unit_square(COMM, 1, 1)
-    facets = meshes.owned_exterior_facets(msh)
+    facets = mesh_domain.owned_exterior_facets(msh)
     with pytest.raises(InputError, match="facet tag 0 is reserved for untagged facets"):
-        meshes.from_dolfinx(msh, dmesh.meshtags(msh, 1, facets, np.zeros(len(facets), np.int32)))
+        tagged.from_dolfinx(msh, dmesh.meshtags(msh, 1, facets, np.zeros(len(facets), np.int32)))
     cells = np.array([[0, 1, 2, 3, 4, 5]], dtype=np.int64)
     x = np.array([[0, 0], [1, 0], [0, 1], [0.5, 0.5], [0, 0.5], [0.5, 0]], dtype=np.float64)
     if versions.V05:
@@ -178,7 +180,7 @@ def test_from_dolfinx_refuses_tag_zero_and_second_order():
         import basix.ufl
         p2 = dmesh.create_mesh(COMM, cells=cells, x=x, e=basix.ufl.element("Lagrange", "triangle", 2, shape=(2,)))
     with pytest.raises(InputError) as err:
-        meshes.from_dolfinx(p2, dmesh.meshtags(p2, 1, np.zeros(0, np.int32), np.zeros(0, np.int32)))
+        tagged.from_dolfinx(p2, dmesh.meshtags(p2, 1, np.zeros(0, np.int32), np.zeros(0, np.int32)))
     assert str(err.value) == f"mesh of triangle cells of degree 2 in 2D: {SUPPORTED}"
 
 
@@ -241,7 +243,7 @@ def test_from_gmsh_3d_file(tmp_path):
         two_volumes(gmsh)
         gmsh.write(str(path))
         num_cells = sum(len(t) for t in gmsh.model.mesh.getElements(3)[1])
-    domain = meshes.from_gmsh(COMM, path)
+    domain = gmsh_io.from_gmsh(COMM, path)
     assert domain.tdim == 3 and domain.num_cells() == num_cells
     assert domain.facet_groups == {"left": 3, "bottom": 4} and domain.cell_groups == {"soft": 1, "hard": 2}
     vertices, ids = domain.boundary
@@ -249,7 +251,7 @@ def test_from_gmsh_3d_file(tmp_path):
     assert vertices.shape[1:] == (3, 3) and len(ids) == len(domain.facet_tags.indices)
     np.testing.assert_array_equal(ids == 3, np.isclose(midpoints[:, 0], 0))
     np.testing.assert_array_equal(ids == 4, np.isclose(midpoints[:, 2], 0) & ~np.isclose(midpoints[:, 0], 0))
-    cells = meshes.dmesh.compute_midpoints(domain.mesh, 3, np.arange(num_cells, dtype=np.int32))
+    cells = dmesh.compute_midpoints(domain.mesh, 3, np.arange(num_cells, dtype=np.int32))
     np.testing.assert_array_equal(domain.region.x.array, np.where(cells[:, 0] < 1, 1, 2))
 
 
@@ -266,7 +268,7 @@ def test_from_gmsh_model_refuses(make, expected):
         gmsh.model.add("bad")
         make(gmsh)
         with pytest.raises(InputError) as err:
-            meshes.from_gmsh_model(COMM)
+            gmsh_io.from_gmsh_model(COMM)
     assert str(err.value).startswith("gmsh model 'bad': ") and expected in str(err.value)
 
 
@@ -276,7 +278,7 @@ def test_from_gmsh_refuses_a_surface_in_two_groups(tmp_path):
         two_volumes(gmsh, "surface_twice")
         gmsh.write(str(path))
     with pytest.raises(InputError) as err:
-        meshes.from_gmsh(COMM, path)
+        gmsh_io.from_gmsh(COMM, path)
     assert str(err.value) == f"mesh file '{path}': boundary surface 2 is in two groups, 'left' and 'interface'"
 
 
@@ -292,7 +294,7 @@ def test_from_gmsh_reads_a_mesh_file_only(tmp_path):
         square(gmsh, "triangles")
         gmsh.write(str(good))
     (tmp_path / "good.msh.opt").write_text(hostile)
-    assert meshes.from_gmsh(COMM, good).num_cells() > 0
+    assert gmsh_io.from_gmsh(COMM, good).num_cells() > 0
     (tmp_path / "script.msh").write_text(hostile)
     (tmp_path / "script.geo").write_text(hostile)
     (tmp_path / "bom.msh").write_bytes(b"\xef\xbb\xbf$MeshFormat\n" + hostile.encode())
@@ -306,7 +308,7 @@ def test_from_gmsh_reads_a_mesh_file_only(tmp_path):
                            ("folder.msh", "is a directory, not a file"), ("fifo.msh", "is not a regular file"),
                            ("missing.msh", "not found"), ("x" * 300 + ".msh", "File name too long")]:
         with pytest.raises(InputError) as err:
-            meshes.from_gmsh(COMM, tmp_path / name)
+            gmsh_io.from_gmsh(COMM, tmp_path / name)
         text = str(err.value)
         assert "mesh file '" in text and expected in text and "\n" not in text, text
         assert f"{name}' {expected}" in text or len(name) > 200, text  # (a long name is cut short)
@@ -319,13 +321,13 @@ def test_from_gmsh_model_runs_build_and_reports_its_failure():
         gmsh.model.add("bad")
         square(gmsh, "triangles")
 
-    assert meshes.from_gmsh_model(COMM, build=build).num_cells() > 0
+    assert gmsh_io.from_gmsh_model(COMM, build=build).num_cells() > 0
 
     def failing():  # (no argument: called without gmsh)
         raise ValueError("no such geometry")
 
     with pytest.raises(InputError) as err:
-        meshes.from_gmsh_model(COMM, build=failing)
+        gmsh_io.from_gmsh_model(COMM, build=failing)
     assert str(err.value) == "the gmsh model built on rank 0 failed: ValueError: no such geometry"
 
 

@@ -15,7 +15,7 @@ RUN = ["block", "--refine", "adaptive", "--levels", "2", "--set", "mesh.cells=[8
 E, NU = 1.0e3, 0.3  # block.toml's material
 
 
-# --- a reader for the files nc_dolfinx.vtu writes (independent of the writer) ---------------------------
+# --- a reader for the files nc_dolfinx.output.vtu writes (independent of the writer) ---------------------------
 
 def decode(element):
     """A DataArray written as base64 with its own base64 UInt64 byte count (the 12 first characters)."""
@@ -133,7 +133,7 @@ def test_csv_splits_the_contact_force(result):
 
 def test_every_column_is_documented(tmp_path, result):
     """Every CSV column of a run with an exact solution and of an adaptive run has a meaning."""
-    from nc_dolfinx import columns
+    from nc_dolfinx.output import columns
     out = tmp_path / "manufactured"
     done = cli(["manufactured", "--refine", "uniform", "--levels", "2", "--quiet", "--out", out])
     assert done.returncode == 0, done.stdout + done.stderr
@@ -144,7 +144,7 @@ def test_every_column_is_documented(tmp_path, result):
 
 
 def test_readme_output_reference_is_generated():
-    from nc_dolfinx import columns
+    from nc_dolfinx.output import columns
     readme = (ROOT / "README.md").read_text()
     start, end = "<!-- columns:start -->\n", "<!-- columns:end -->"
     assert readme[readme.index(start) + len(start):readme.index(end)] == columns.markdown()
@@ -156,7 +156,8 @@ def test_vtu_writer_in_3d(tmp_path):
     from mpi4py import MPI
     import dolfinx
     from dolfinx import fem
-    from nc_dolfinx import dolfinx_versions as versions, vtu
+    from nc_dolfinx import dolfinx_versions as versions
+    from nc_dolfinx.output import vtu
     msh = dolfinx.mesh.create_unit_cube(MPI.COMM_SELF, 2, 2, 2)
     u = fem.Function(versions.p1_space(msh, (3,)))
     u.interpolate(lambda x: np.stack([x[0], 2 * x[1], 3 * x[2]]))
@@ -176,7 +177,7 @@ def test_clean_up_removes_staging_files_a_signal_left_unrecorded(tmp_path):
     """A Ctrl-C between a temporary file's creation and its record left it behind (seen in CI): the
     clean-up after an interruption removes every file and folder named like ours, and only those."""
     from mpi4py import MPI
-    from nc_dolfinx.output import ResultFolder
+    from nc_dolfinx.output.files import ResultFolder
     folder = ResultFolder(tmp_path / "out", MPI.COMM_SELF)
     folder.open()
     (folder.path / "levels").mkdir()

@@ -5,10 +5,10 @@ from mpi4py import MPI
 
 from conftest import ROOT
 import nc_dolfinx as nc
-from nc_dolfinx import schema
+from nc_dolfinx.problem import schema
 from nc_dolfinx.errors import InputError
-from nc_dolfinx.expressions import to_float
-from nc_dolfinx.problem import apply_overrides, read_toml
+from nc_dolfinx.problem.expressions import to_float
+from nc_dolfinx.problem.reading import apply_overrides, read_toml
 
 BLOCK = ROOT / "nc_dolfinx" / "cases" / "block.toml"
 MINIMAL = {

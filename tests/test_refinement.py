@@ -91,7 +91,7 @@ def test_solution_transfer_is_exact_for_linear_fields(levels, nprocs, mesh):
 def test_point_matching(gdim):
     """Child vertices are matched to parent vertices/midpoints by rounded coordinates, never wrongly."""
     import numpy as np
-    from nc_dolfinx.refinement import _match_points
+    from nc_dolfinx.mesh.refinement import _match_points
     rng = np.random.default_rng(1)
     known = rng.random((1000, gdim)) * [3.0, 1e-3, 2.0][:gdim] + [-1.0, 5.0, 1e6][:gdim]
     a, b = known[:10], known[10:20]

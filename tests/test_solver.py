@@ -14,7 +14,7 @@ from dolfinx import fem, mesh as dmesh
 from conftest import ROOT, run, run_cli, summary
 from mpi.square import square_problem
 import nc_dolfinx as nc
-from nc_dolfinx import forms
+from nc_dolfinx.physics import forms
 from nc_dolfinx import dolfinx_versions as versions
 from nc_dolfinx.errors import InputError
 from nc_dolfinx.solver import (Forcing, NonlinearSolver, choose_preset, rigid_body_modes, resolve_options,

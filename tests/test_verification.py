@@ -33,12 +33,12 @@ def test_quick_verification_passes(tmp_path):
 
 
 def test_the_sensitivity_study_s_breaks_still_apply():
-    """Study 8 patches nc_dolfinx/estimator.py textually; a refactor that moves the patched line makes the
+    """Study 8 patches nc_dolfinx/estimator/indicators.py textually; a refactor that moves the patched line makes the
     full report's study 8 fail ("patch not applied", seen after the estimator's assemblies were merged).
     Each pattern must occur exactly once, so the refactor itself is caught here, in CI. (In a child
     process: verification/ and benchmarks/ each have a module named common.)"""
     code = ("import sys; sys.path.insert(0, 'verification'); import sensitivity; "
-            "text = open('nc_dolfinx/estimator.py').read(); "
+            "text = open('nc_dolfinx/estimator/indicators.py').read(); "
             "print(sorted(text.count(old) for old, _ in sensitivity.BREAKS.values()))")
     out = subprocess.run([PYTHON, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[1, 1]"

@@ -389,11 +389,11 @@ def sensitivity(data):
     s = Section("sensitivity", TITLES["sensitivity"])
     rows = []
     for r in data:
-        rows.append([r["break"], "yes" if r["applied"] else "NO (estimator.py changed: update the patch)",
+        rows.append([r["break"], "yes" if r["applied"] else "NO (estimator/indicators.py changed: update the patch)",
                      r["exit"], "; ".join(r["caught_by"]) or "–", f"{r['time']:.0f} s"])
         s.check(f"quick mode with '{r['break']}'", f"exit {r['exit']}, {len(r['caught_by'])} expectation(s) fail"
                 if r["applied"] else "patch not applied", "exit 1", r["applied"] and r["exit"] == 1)
-    s.tables.append(("verify.py --quick on a temporary copy whose nc_dolfinx/estimator.py is patched",
+    s.tables.append(("verify.py --quick on a temporary copy whose nc_dolfinx/estimator/indicators.py is patched",
                      ["break", "applied", "exit", "expectations that fail", "time"], rows))
     return s
 

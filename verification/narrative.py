@@ -38,7 +38,7 @@ exact Gateaux Jacobian; for m_n = 1 the generalized Jacobian of (·)_+), each le
 level's solution. The contact integral j_n(u_h, v_h) is integrated with a Gauss rule of degree {contact_form} on each
 contact edge.
 
-**Estimator (Definition 5), as implemented in `nc_dolfinx/estimator.py`.**
+**Estimator (Definition 5), as implemented in `nc_dolfinx/estimator/indicators.py`.**
 - h_K is the diameter of K (its longest edge, `ufl.CellDiameter`); h_E = |E|.
 - η_1K = h_K ‖f_K‖_K with f_K the mean of f over K.
 - η_2K = h_K^{{1/2}} (Σ_{{E ⊂ ∂K, interior or Neumann}} ‖J_E‖²_E)^{{1/2}}: on an interior edge J_E = [σ(u_h)ν_E] is the
@@ -51,7 +51,7 @@ contact edge.
 - ζ_K² = h_K² Σ_{{K' ⊂ ω_K}} ‖f − f_K'‖²_K' + Σ_{{E ⊂ ∂K ∩ Γ_N}} h_E ‖g − g_E‖²_E with ω_K the cells sharing a vertex
   with K (the vertex patch sum is computed by inclusion–exclusion, `patch_sum`).
 
-**Errors (`nc_dolfinx/quantities.py`).** ‖u − u_h‖_1 is the full H¹ norm (L² part included) and ‖u − u_h‖_0 the L²
+**Errors (`nc_dolfinx/physics/quantities.py`).** ‖u − u_h‖_1 is the full H¹ norm (L² part included) and ‖u − u_h‖_0 the L²
 norm, both with a degree-{error} rule against the exact solution; Remark 9's augmented error is
 ẽ = ‖u − u_h‖_1 + (Σ_{{E ⊂ Γ_C}} h_E ‖σ_n(u − u_h)‖²_E)^{{1/2}} (degree 16 on Γ_C). Effectivity indices are η/‖u − u_h‖_1
 and η/ẽ. Rates are least-squares slopes of log(quantity) against log h (uniform meshes; h = max h_K) or
@@ -142,7 +142,7 @@ pointwise-constrained problem: an earlier trial with g_0 = 0.2 (x − 1)² stall
 the foundation y = 0, penalty reading of the compliance law m_n = 1, c_n = {hz['c_n']}, gap g_0 = y; see the case file)
 with the package's adaptive loop (Dörfler, θ = 0.5). On each level the computed half-width (half the length of
 {{p > 0}} on Γ_C) and peak pressure (largest lumped nodal pressure) are compared with the plane-strain Hertz values
-for the *computed* resultant P: a = (4PR/(πE*))^{{1/2}}, p_0 = 2P/(πa), E* = E/(1 − ν²) (`nc_dolfinx/reference.py`).
+for the *computed* resultant P: a = (4PR/(πE*))^{{1/2}}, p_0 = 2P/(πa), E* = E/(1 − ν²) (`nc_dolfinx/physics/reference.py`).
 """)
         add(section_md(sec["hertz"]))
         add(_pics(pictures, "hertz"))
@@ -205,7 +205,7 @@ marked sets). Linear solver: the package's default preset.
     add(f"## {TITLES['sensitivity']}\n")
     if "sensitivity" in sec:
         add("""Do the expectations detect a wrong estimator? `verification/sensitivity.py` copies the repository to a temporary
-directory, patches the copy's `nc_dolfinx/estimator.py` (the working tree is never modified) and runs
+directory, patches the copy's `nc_dolfinx/estimator/indicators.py` (the working tree is never modified) and runs
 `verify.py --quick` there; it must exit 1. The two breaks: the interior-edge jumps multiplied by 0, and the
 interior-edge weight h_K replaced by h_E² (η_2K ≈ h_E ‖J‖_E instead of h_K^{1/2} ‖J‖_E: too small by a factor h^{1/2}).
 """)

@@ -1,9 +1,9 @@
 """Study 8: the quick mode must fail when the estimator is broken.
 
-Each break is a textual patch of ``nc_dolfinx/estimator.py`` applied to a *temporary copy* of the
+Each break is a textual patch of ``nc_dolfinx/estimator/indicators.py`` applied to a *temporary copy* of the
 repository (the real file is never touched); the copy's ``verification/verify.py --quick`` must then exit
 non-zero. Its summary.json tells which expectations caught the break. If a patch no longer applies
-(estimator.py was refactored), that is reported as a failure, so the patterns get updated.
+(estimator/indicators.py was refactored), that is reported as a failure, so the patterns get updated.
 """
 import json
 import shutil
@@ -39,7 +39,7 @@ def run(nprocs, timeout=1800):
                                                                                    "summary.json"))
                 elif src.exists():
                     shutil.copy2(src, tmp / item)
-            target = tmp / "nc_dolfinx" / "estimator.py"
+            target = tmp / "nc_dolfinx" / "estimator" / "indicators.py"
             text = target.read_text()
             if text.count(old) != 1:
                 results.append({"break": name, "applied": False, "exit": None, "caught_by": [],

@@ -67,7 +67,7 @@ def main(argv=None):
     parser.add_argument("--keep", action="store_true", help="keep the workers' JSON results and log")
     parser.add_argument("--workdir", default=None, help="directory for the workers' results (default: a new temporary one)")
     parser.add_argument("--sensitivity", choices=("auto", "yes", "no"), default="auto",
-                        help="study 8: run the quick mode on temporary copies with a broken estimator.py and expect "
+                        help="study 8: run the quick mode on temporary copies with a broken estimator/indicators.py and expect "
                              "it to fail (auto: in full mode only)")
     parser.add_argument("--reuse", default=None, metavar="WORKDIR",
                         help="development: re-check and re-report the JSON results kept in WORKDIR, running nothing")

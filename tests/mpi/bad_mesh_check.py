@@ -11,7 +11,7 @@ from mpi4py import MPI
 
 from dolfinx import mesh as dmesh
 
-from nc_dolfinx import meshes
+from nc_dolfinx.mesh import gmsh_io, tagged
 from nc_dolfinx.errors import InputError
 
 comm = MPI.COMM_WORLD
@@ -27,7 +27,7 @@ if comm.rank == 0:
     gmsh.model.mesh.generate(3)
 messages = []
 try:
-    meshes.from_gmsh_model(comm)
+    gmsh_io.from_gmsh_model(comm)
     messages.append("no error")
 except InputError as err:
     messages.append(str(err))
@@ -36,7 +36,7 @@ gmsh.finalize()
 msh = dmesh.create_box(comm, [[0, 0, 0], [1, 1, 1]], [2, 2, 2], dmesh.CellType.hexahedron)
 empty = np.zeros(0, dtype=np.int32)
 try:
-    meshes.from_dolfinx(msh, dmesh.meshtags(msh, 2, empty, empty))
+    tagged.from_dolfinx(msh, dmesh.meshtags(msh, 2, empty, empty))
     messages.append("no error")
 except InputError as err:
     messages.append(str(err))

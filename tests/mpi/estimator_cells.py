@@ -12,8 +12,8 @@ from mpi4py import MPI
 from dolfinx import fem, mesh as dmesh
 import nc_dolfinx as nc
 from nc_dolfinx import dolfinx_versions as versions
-from nc_dolfinx.estimator import varying_traction_groups
-from nc_dolfinx.estimator_geometry import facet_layers
+from nc_dolfinx.estimator.indicators import varying_traction_groups
+from nc_dolfinx.estimator.geometry import facet_layers
 
 PROBLEM = {
     "mesh": {"box": [[0, 0, 0], [1, 1, 0.5]], "cells": [4, 4, 2], "symmetry": ["left"], "dirichlet": ["top"],

@@ -6,8 +6,8 @@ import sys
 
 from mpi4py import MPI
 
-from nc_dolfinx import cli
-from nc_dolfinx.run import CaseRun
+from nc_dolfinx.cli import command_line as cli
+from nc_dolfinx.cli.run import CaseRun
 
 FAULTY_RANK = int(sys.argv[1])
 original = CaseRun.on_level

@@ -1,12 +1,12 @@
 """Refine meshes adaptively three times; print measures per level as JSON (rank 0), {mesh: [level, ...]}.
 
 Usage: refine_check.py MESH [MESH ...], each MESH one of
-  gmsh=PATH  a .msh file read with meshes.from_gmsh
+  gmsh=PATH  a .msh file read with gmsh_io.from_gmsh
   gmsh3d     [0,2]x[0,1]x[0,1] split at x = 1 into volumes 'soft'/'hard', surface groups left (x = 0),
              bottom (z = 0, both halves), top (z = 1), the rest untagged; built in memory on rank 0 by the
-             gmsh API and read with meshes.from_gmsh_model
-  box        meshes.box on [0,2]x[0,1]x[0,1]
-  dolfinx    meshes.from_dolfinx on a dolfinx box [0,2]x[0,1]x[0,1]: facets x = 0 tag 1 'left', z = 0 tag 5
+             gmsh API and read with gmsh_io.from_gmsh_model
+  box        builtin.box on [0,2]x[0,1]x[0,1]
+  dolfinx    tagged.from_dolfinx on a dolfinx box [0,2]x[0,1]x[0,1]: facets x = 0 tag 1 'left', z = 0 tag 5
              (unnamed), a named tag 9 on no facet; cells x < 1 tag 3 'soft', the rest untagged
 All domains lie in [0,2]x[0,1](x[0,1]); cells are marked near (1, 0, 0) and near (2, 1, 1).
 """
@@ -19,7 +19,8 @@ from mpi4py import MPI
 
 from dolfinx import fem, mesh as dmesh
 
-from nc_dolfinx import meshes, refinement
+from nc_dolfinx.mesh import builtin, domain as mesh_domain, gmsh_io, tagged
+from nc_dolfinx.mesh import refinement
 from nc_dolfinx import dolfinx_versions as versions
 
 comm = MPI.COMM_WORLD
@@ -54,7 +55,7 @@ def gmsh3d():
         for node, xyz in zip(nodes, x):
             model.mesh.setNode(node, xyz, [])
     try:
-        return meshes.from_gmsh_model(comm)
+        return gmsh_io.from_gmsh_model(comm)
     finally:
         gmsh.finalize()
 
@@ -67,7 +68,7 @@ def user_box():
     facets, order = np.unique(np.concatenate([left, bottom]), return_index=True)
     values = np.concatenate([np.full(len(left), 1), np.full(len(bottom), 5)])[order]
     soft = dmesh.locate_entities(msh, tdim, lambda x: x[0] < 1 + 1e-12)
-    return meshes.from_dolfinx(msh, dmesh.meshtags(msh, tdim - 1, facets, values.astype(np.int32)),
+    return tagged.from_dolfinx(msh, dmesh.meshtags(msh, tdim - 1, facets, values.astype(np.int32)),
                                {1: "left", 9: "nowhere"},
                                dmesh.meshtags(msh, tdim, soft, np.full(len(soft), 3, dtype=np.int32)), {3: "soft"})
 
@@ -85,10 +86,10 @@ def facets_off_their_group(domain):
     wrong = 0
     for group in np.unique(tags.values):
         sel = tags.values == group
-        if group == meshes.UNTAGGED:
-            found = meshes.match_simplices(centroids[sel], (vertices[ids != group], ids[ids != group]), 1e-10)
+        if group == mesh_domain.UNTAGGED:
+            found = mesh_domain.match_simplices(centroids[sel], (vertices[ids != group], ids[ids != group]), 1e-10)
         else:
-            found = meshes.match_simplices(centroids[sel], (vertices[ids == group], ids[ids == group]), 1e-10)
+            found = mesh_domain.match_simplices(centroids[sel], (vertices[ids == group], ids[ids == group]), 1e-10)
         wrong += int(np.count_nonzero(found != group))
     return comm.allreduce(wrong, MPI.SUM)
 
@@ -98,7 +99,7 @@ def measures(domain):
     ds = ufl.Measure("ds", domain=msh, subdomain_data=domain.facet_tags)
     one = fem.Constant(msh, 1.0)
     out = {f"group:{name}": integrate(one * ds(i)) for name, i in domain.facet_groups.items()}
-    out["untagged"] = integrate(one * ds(meshes.UNTAGGED))
+    out["untagged"] = integrate(one * ds(mesh_domain.UNTAGGED))
     for name, i in domain.cell_groups.items():
         out[f"region:{name}"] = integrate(ufl.conditional(ufl.eq(domain.region, i), 1.0, 0.0) * ufl.dx)
     out["interior_facets"] = integrate(one * ufl.dS(domain=msh))
@@ -148,9 +149,9 @@ def refine_three_times(domain):
 def domain_of(spec):
     kind, _, path = spec.partition("=")
     if kind == "gmsh":
-        return meshes.from_gmsh(comm, path)
+        return gmsh_io.from_gmsh(comm, path)
     if kind == "box":
-        return meshes.box(comm, [[0, 0, 0], [2, 1, 1]], [4, 2, 2])
+        return builtin.box(comm, [[0, 0, 0], [2, 1, 1]], [4, 2, 2])
     return {"gmsh3d": gmsh3d, "dolfinx": user_box}[kind]()
 
 

@@ -15,7 +15,7 @@ from mpi4py import MPI
 from dolfinx import fem
 
 import nc_dolfinx as nc
-from nc_dolfinx import forms
+from nc_dolfinx.physics import forms
 from square import bilateral_solution, max_difference
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))

@@ -8,7 +8,8 @@ from mpi4py import MPI
 
 
 import nc_dolfinx as nc
-from nc_dolfinx import dolfinx_versions as versions, forms
+from nc_dolfinx import dolfinx_versions as versions
+from nc_dolfinx.physics import forms
 
 
 def square_problem(c_n, m_n, cells=24, gap=0.0, preset=None):

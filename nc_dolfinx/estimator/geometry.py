@@ -18,7 +18,7 @@ from mpi4py import MPI
 import dolfinx
 from dolfinx import fem, mesh as dmesh
 
-from . import dolfinx_versions as versions
+from .. import dolfinx_versions as versions
 
 
 def diameters(msh, dim, entities):

@@ -20,7 +20,7 @@ from scipy.spatial import cKDTree
 import dolfinx
 from dolfinx import fem, mesh as dmesh
 
-from . import dolfinx_versions as versions
+from .. import dolfinx_versions as versions
 
 UNTAGGED = 0
 _NEAREST = 8  # simplices checked exactly per point before the exhaustive fallback

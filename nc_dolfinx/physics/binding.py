@@ -16,11 +16,15 @@ from petsc4py import PETSc
 
 from dolfinx import fem
 
-from . import dolfinx_versions as versions, meshes, physics
-from .errors import InputError, brief_text
-from .expressions import to_ufl, to_ufl_vector, values_at
-from .problem import check_exponent, check_file, check_reference, check_vector_sizes
-from .schema import ROLES
+from .. import dolfinx_versions as versions
+from ..errors import InputError, brief_text
+from ..mesh import builtin, gmsh_io
+from ..mesh.domain import UNTAGGED, Domain
+from ..problem.expressions import to_ufl, to_ufl_vector, values_at
+from ..problem.problem import check_exponent, check_reference, check_vector_sizes
+from ..problem.reading import check_file
+from ..problem.schema import ROLES
+from . import elasticity
 
 
 @dataclass
@@ -29,7 +33,7 @@ class Fields:
     refinement): λ, μ of Hooke's law (Constants, or DG0 fields with material regions), the body force
     f of (1), the tractions g of (3) per Neumann group, c_n, m_n and the gap g_0 of the law (4), the exact
     displacement if given, the group ids of each role and the boundary measure ``ds``."""
-    domain: meshes.Domain
+    domain: Domain
     lmbda: object
     mu: object
     f: object
@@ -55,7 +59,7 @@ class Fields:
 
     def sigma(self, u):
         """σ(u) = 2μ ε(u) + λ tr ε(u) I with this problem's material (§2)."""
-        return physics.sigma(u, self.lmbda, self.mu)
+        return elasticity.sigma(u, self.lmbda, self.mu)
 
     def boundary_conditions(self, V):
         """Dirichlet conditions on the vector P1 space ``V``: u = 0 on Γ_D (2); on each symmetry plane
@@ -91,7 +95,7 @@ def bind(problem, domain):
     listed_neumann = ids["neumann"]  # a traction given for all of Γ_N applies to these only
     # Groups of the mesh in no role, and untagged facets, are traction-free Neumann boundary.
     in_roles = set(sum(ids.values(), ()))
-    free = tuple(i for i in (meshes.UNTAGGED, *domain.facet_groups.values())
+    free = tuple(i for i in (UNTAGGED, *domain.facet_groups.values())
                  if i not in in_roles and counts.get(i, 0))
     ids["neumann"] = tuple(sorted(set(ids["neumann"] + free)))
 
@@ -105,7 +109,7 @@ def bind(problem, domain):
                     u_exact, ids, ds)
     fields.symmetry_axes = {i: _symmetry_axis(domain, i, _name(domain, i)) for i in ids["symmetry"]
                             if counts.get(i, 0)}
-    unassigned = [f"'{_name(domain, i)}'" for i in free if i != meshes.UNTAGGED]
+    unassigned = [f"'{_name(domain, i)}'" for i in free if i != UNTAGGED]
     if unassigned:
         fields.warnings.append(
             f"boundary group{'s' if len(unassigned) > 1 else ''} {', '.join(unassigned)} of the mesh "
@@ -158,7 +162,7 @@ def _material(problem, domain):
     material, msh = problem.values["material"], domain.mesh
     regions = material.get("regions", {})
     if not regions:
-        return (fem.Constant(msh, PETSc.ScalarType(v)) for v in physics.lame(material["E"], material["nu"]))
+        return (fem.Constant(msh, PETSc.ScalarType(v)) for v in elasticity.lame(material["E"], material["nu"]))
     E, nu = (fem.Function(domain.region.function_space) for _ in range(2))
     E.x.array[:], nu.x.array[:] = material["E"], material["nu"]
     for region, values in regions.items():
@@ -167,7 +171,7 @@ def _material(problem, domain):
                              f"(groups: {', '.join(sorted(domain.cell_groups))})")
         mask = np.isclose(domain.region.x.array, domain.cell_groups[region])
         E.x.array[mask], nu.x.array[mask] = values["E"], values["nu"]
-    return physics.lame(E, nu)
+    return elasticity.lame(E, nu)
 
 
 def _loads(problem, domain, listed_neumann, neumann, u_exact, lmbda, mu):
@@ -175,7 +179,7 @@ def _loads(problem, domain, listed_neumann, neumann, u_exact, lmbda, mu):
     msh, params, loads = domain.mesh, problem.parameters, problem.values["loads"]
     if loads["from_exact"]:
         n = ufl.FacetNormal(msh)
-        s = physics.sigma(u_exact, lmbda, mu)
+        s = elasticity.sigma(u_exact, lmbda, mu)
         return -ufl.div(s), {i: s * n for i in neumann}
     zero = ["0"] * msh.geometry.dim
     f = to_ufl_vector(loads["f"] or zero, msh, params, "loads.f")
@@ -272,12 +276,12 @@ def build_domain(problem, comm):
     from pathlib import Path
     spec = problem.values["mesh"]
     if spec["rectangle"]:
-        return meshes.rectangle(comm, spec["rectangle"], spec["cells"], spec["diagonal"])
+        return builtin.rectangle(comm, spec["rectangle"], spec["cells"], spec["diagonal"])
     if spec["box"]:
-        return meshes.box(comm, spec["box"], spec["cells"])
+        return builtin.box(comm, spec["box"], spec["cells"])
     if not spec["file"]:
         raise InputError("the problem names no mesh (mesh.file, mesh.rectangle or mesh.box): build a Domain "
                          "(nc.from_gmsh_model, nc.from_dolfinx, …) and pass it to solve/adapt")
     path = Path(spec["file"])
     check_file(path, "mesh file")
-    return meshes.from_gmsh(comm, path)
+    return gmsh_io.from_gmsh(comm, path)

@@ -12,8 +12,8 @@ import difflib
 import math
 from dataclasses import dataclass
 
+from ..errors import InputError, brief, brief_text
 from . import expressions
-from .errors import InputError, brief, brief_text
 
 REQUIRED = object()  # the default of a required key
 NONE = None          # the default of an optional key that is simply absent

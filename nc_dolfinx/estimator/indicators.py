@@ -21,7 +21,7 @@ component as Dirichlet data on it); it is bounded like the σ_t term on Γ_C, an
 Equivalently, mirroring the body across the plane makes F interior, with the jump [σν] = 2σ_t (tangential)
 and 0 (normal): the same term up to the factor 4.
 
-Every quantity is assembled against DG0 test functions (:func:`~nc_dolfinx.domain.cell_space`: cell i's
+Every quantity is assembled against DG0 test functions (:func:`~nc_dolfinx.mesh.domain.cell_space`: cell i's
 values at entries i·dim …) over cells, interior facets, Neumann facets and contact/symmetry facets (or
 computed from the vertex coordinates: h_F, and h_K when f = 0), so it is parallel with ghost cells on
 facets only. The integrals are grouped into few assemblies, each with a fixed cost: one over the cells
@@ -41,7 +41,7 @@ Constant data have no oscillation: a constant f skips the patch sum, a constant 
 - η_4: the kink of (·)_+ inside a facet. On edges (2D) the residual is integrated unsplit with a Gauss rule
   of degree CONTACT_DEGREE = 24 (13 points; measured ≤ 3.2e-4 relative in η_4K on kinked edges, the
   verified 2D numbers). On faces (3D) an unsplit rule is much worse (degree 24, 112 points: up to 3e-3 on
-  random kinked triangles), so the face is cut along the zero set of u_hn − g_0 (:mod:`.estimator_kink`)
+  random kinked triangles), so the face is cut along the zero set of u_hn − g_0 (:mod:`.kink`)
   and a rule of degree CONTACT_DEGREE_SPLIT = 16 (55 points) is applied on each piece: exact for m_n = 1
   with polynomial c_n and affine g_0 (measured 5e-15), ≤ 2e-7 relative for m_n = 1.5
   (tests/test_estimator_3d.py). ``split_kinks`` and ``contact_degree`` override both choices.
@@ -56,10 +56,11 @@ from mpi4py import MPI
 import dolfinx
 from dolfinx import fem
 
-from . import dolfinx_versions as versions, forms, physics
-from .domain import cell_space
-from .estimator_geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
-from .estimator_kink import law_residual_squared
+from .. import dolfinx_versions as versions
+from ..mesh.domain import cell_space
+from ..physics import elasticity, forms
+from .geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
+from .kink import law_residual_squared
 
 __all__ = ["NAMES", "CELL_DEGREE", "CONTACT_DEGREE", "CONTACT_DEGREE_SPLIT", "Estimate", "assemble_cellwise",
            "compile_form", "estimate", "patch_sum"]
@@ -206,11 +207,11 @@ def _facet_terms(u, fields, contact_degree, split_kinks, varying):
     Qv = cell_space(msh, 3)
     wv = ufl.TestFunction(Qv)
     n, s = ufl.FacetNormal(msh), fields.sigma(u)
-    sigma_t = physics.tangential_stress(s, n)
+    sigma_t = elasticity.tangential_stress(s, n)
     if split_kinks:
         law_squared = law_residual_squared(u, fields, n)
     else:
-        law_squared = (forms.contact_pressure(u, fields, n) + physics.normal_stress(s, n)) ** 2
+        law_squared = (forms.contact_pressure(u, fields, n) + elasticity.normal_stress(s, n)) ** 2
     eta_2, eta_3, eta_4 = 0, 1, 2  # components of wv
     dC = forms.contact_measure(fields, contact_degree)
     form = (ufl.inner(sigma_t, sigma_t) * wv[eta_3] + law_squared * wv[eta_4]) * dC

@@ -5,6 +5,8 @@ those of dimension tdim (surfaces in 2D, volumes in 3D); a group's name is its p
 as a string. The model is checked on the rank that holds it for everything DOLFINx 0.5's ``gmshio`` would
 assert on or crash over; an error is broadcast and raised on every rank together, so no rank is left
 waiting for one that failed.
+
+``gmsh`` is imported inside the functions that call it: loading it takes 0.3 s that only gmsh users pay.
 """
 import inspect
 import os
@@ -12,12 +14,11 @@ import shutil
 import stat
 import tempfile
 
-import gmsh
 import numpy as np
 
-from . import dolfinx_versions as versions
-from .errors import InputError, brief_text
-from .meshes import SUPPORTED, from_dolfinx
+from .. import dolfinx_versions as versions
+from ..errors import InputError, brief_text
+from .tagged import SUPPORTED, from_dolfinx
 
 ENTITY = {0: "point", 1: "curve", 2: "surface", 3: "volume"}
 FACETS_OF_CELLS = {2: "edges", 3: "faces"}
@@ -45,6 +46,7 @@ def from_gmsh(comm, path):
     ``MergeFile`` also merges ``<file>.opt`` if that exists — as a script (gmsh's GUI saves display options
     there); so gmsh reads the file through a link in a private temporary folder, where there is none.
     A missing, unreadable or special file (a directory, a FIFO) is refused too, without waiting on it."""
+    import gmsh
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     try:
@@ -90,6 +92,7 @@ def _not_a_mesh_file(path):
 def _open_mesh_file(path):
     """``gmsh.open`` of the checked file through a link in a new private folder (no ``.opt`` beside it);
     None, or gmsh's error as one line."""
+    import gmsh
     folder = tempfile.mkdtemp(prefix="nc_dolfinx_msh_")
     try:
         link = os.path.join(folder, os.path.basename(str(path)))
@@ -117,6 +120,7 @@ def from_gmsh_model(comm, model=None, rank=0, build=None):
     failed: ValueError: ..."), instead of a job whose other ranks wait for ``rank`` forever in the
     collective call it never reaches. Without ``build`` the caller builds the model and initialises and
     finalises gmsh (an exception before this call then stops one rank only: use ``build`` under MPI)."""
+    import gmsh
     if build is not None:
         return _built_model(comm, model, rank, build)
     model = gmsh.model if model is None else model
@@ -128,6 +132,7 @@ def from_gmsh_model(comm, model=None, rank=0, build=None):
 
 def _built_model(comm, model, rank, build):
     """from_gmsh_model with ``build`` (see there)."""
+    import gmsh
     if not callable(build):
         raise TypeError(f"build must be a callable, build(gmsh) or build(), got {type(build).__name__}")
     if not 0 <= rank < comm.size:

@@ -8,8 +8,8 @@ from petsc4py import PETSc
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
-from . import dolfinx_versions as versions, forms
-from . import physics
+from .. import dolfinx_versions as versions
+from . import elasticity, forms
 
 ERROR_DEGREE = 8
 
@@ -80,7 +80,7 @@ def errors(u, fields):
     l2 = np.sqrt(integrate(ufl.inner(e, e) * dx, comm))
     h1 = np.sqrt(l2 ** 2 + integrate(ufl.inner(ufl.grad(e), ufl.grad(e)) * dx, comm))
     n = ufl.FacetNormal(fields.domain.mesh)
-    sigma_n_err = physics.normal_stress(fields.sigma(e), n)
+    sigma_n_err = elasticity.normal_stress(fields.sigma(e), n)
     h_E = ufl.FacetArea(fields.domain.mesh)
     contact = np.sqrt(integrate(h_E * sigma_n_err ** 2 * forms.contact_measure(fields, 16), comm))
     return {"l2_error": l2, "h1_error": h1, "augmented_error": h1 + contact}

@@ -1,8 +1,9 @@
 """Fields for output beside the solution and its indicators, and the XDMF files that hold them."""
 from dolfinx import fem, io
 
-from . import dolfinx_versions as versions, forms, physics
-from .quantities import contact_projection
+from .. import dolfinx_versions as versions
+from ..physics import elasticity, forms
+from ..physics.quantities import contact_projection
 
 
 def write_xdmf(comm, path, mesh, functions):
@@ -18,8 +19,8 @@ def postprocess_fields(u, fields):
     msh = u.function_space.mesh
     T = versions.dg0_space(msh, (3, 3))
     Q = versions.dg0_space(msh)
-    stress = _interpolate(T, physics.stress_3x3(u, fields.lmbda, fields.mu), "stress")
-    vm = _interpolate(Q, physics.von_mises(u, fields.lmbda, fields.mu), "von_mises")
+    stress = _interpolate(T, elasticity.stress_3x3(u, fields.lmbda, fields.mu), "stress")
+    vm = _interpolate(Q, elasticity.von_mises(u, fields.lmbda, fields.mu), "von_mises")
     pressure = contact_projection(forms.contact_pressure(u, fields), fields, "contact_pressure")
     return [stress, vm, pressure]
 

@@ -7,7 +7,7 @@ linear along edges, so the displacement at a child vertex is the parent's value 
 edge's two end values: exact (this is nested iteration's initial guess), and found by matching
 coordinates, without any point location. Region ids (only when there is more than one region) are
 evaluated at child cell midpoints. Boundary groups are re-derived geometrically from the level-0 boundary
-simplices (see :mod:`nc_dolfinx.domain`). All of this holds for triangles and tetrahedra alike.
+simplices (see :mod:`nc_dolfinx.mesh.domain`). All of this holds for triangles and tetrahedra alike.
 
 Every supported DOLFINx refines this way (:func:`nc_dolfinx.dolfinx_versions.refine_keeping_ranks`: natively
 on 0.11, with a partitioner of ours on 0.9, and on 0.5.2 with a repair of the doubled ghosts its
@@ -17,7 +17,7 @@ import numpy as np
 
 from dolfinx import fem, mesh as dmesh
 
-from . import dolfinx_versions as versions
+from .. import dolfinx_versions as versions
 from .domain import Domain, region_function, tag_exterior_facets
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import dolfinx_versions as versions
+from .. import dolfinx_versions as versions
 
 VTK_CELL = {1: 3, 2: 5, 3: 10}  # topological dimension -> VTK_LINE, VTK_TRIANGLE, VTK_TETRA
 _TYPES = {np.dtype(np.float64): "Float64", np.dtype(np.int64): "Int64", np.dtype(np.int32): "Int32",
@@ -137,7 +137,7 @@ def write(comm, folder, name, point_functions, cell_functions, cell_arrays=None)
 
     ``folder`` must exist on every rank; ``cell_arrays`` adds {name: owned-cell values}. Returns the
     .pvtu path. Rank-local write errors are raised on every rank."""
-    from .output import on_every_rank, on_rank0
+    from .files import on_every_rank, on_rank0
     folder = Path(folder)
     msh = next(iter(point_functions.values())).function_space.mesh
     points, cells, point_data, cell_data = piece_data(point_functions, cell_functions)

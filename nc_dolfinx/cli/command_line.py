@@ -2,7 +2,7 @@
 
 Any argument starting with ``-`` that is not one of ours is a PETSc option (``-snes_monitor``,
 ``-ksp_type cg``, ``-pc_type gamg`` …); it is set under the solver's prefix, overriding the preset and the
-problem file; one that no solver reads is an error (:mod:`nc_dolfinx.petsc_options`).
+problem file; one that no solver reads is an error (:mod:`nc_dolfinx.solver.petsc_options`).
 
 Exit status: 0 success; 1 bad input (one line ``nc_dolfinx: error: …`` naming the key, file or option, on
 every rank together); 3 an internal error (under MPI the ranks are then aborted, so that none is left
@@ -18,8 +18,8 @@ from mpi4py import MPI
 
 import nc_dolfinx as nc
 
+from ..errors import InputError, brief_text
 from . import interrupt
-from .errors import InputError, brief_text
 
 EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 1, 3, 130
 
@@ -235,7 +235,7 @@ def prepare_runs(args, cli_options, comm, say):
 
 
 def run_case(run, args, comm, say):
-    from .log import logger, show_progress
+    from ..log import logger, show_progress
     problem, settings = run.problem, run.settings
     handler = None if args.quiet else show_progress(comm=comm)
     say(f"{problem.name}: {problem.title} [{comm.size} rank(s), refine={settings.refine}, "

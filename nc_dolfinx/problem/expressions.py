@@ -21,8 +21,8 @@ import operator
 import numpy as np
 import ufl
 
-from . import dolfinx_versions as versions
-from .errors import InputError, brief, brief_text
+from .. import dolfinx_versions as versions
+from ..errors import InputError, brief, brief_text
 
 COORDINATES = ("x", "y", "z")
 

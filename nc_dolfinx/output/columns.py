@@ -1,7 +1,7 @@
 """What every output column and field means, with its sign convention.
 
 One table serves ``summary.json`` (``columns``, ``sign_conventions``) and the README's Output section
-(``python3 -m nc_dolfinx.columns`` prints the block between ``<!-- columns:start -->`` and
+(``python3 -m nc_dolfinx.output.columns`` prints the block between ``<!-- columns:start -->`` and
 ``<!-- columns:end -->``). ν is the outward unit normal of the body, u_n = u·ν, p the contact pressure.
 """
 

@@ -1,17 +1,19 @@
 """A normal compliance problem (paper §2, (1)–(4)), validated and independent of any mesh.
 
 A :class:`Problem` is made from a TOML problem file (:func:`load_problem`), a built-in case, or a dict
-with the same keys (:meth:`Problem.from_dict`); :mod:`nc_dolfinx.schema` lists every key. Its values can
+with the same keys (:meth:`Problem.from_dict`); :mod:`nc_dolfinx.problem.schema` lists every key. Its values can
 be changed with :meth:`Problem.replace` (the API's ``--set``), which validates again. Binding it to a mesh
-is :func:`nc_dolfinx.binding.bind`.
+is :func:`nc_dolfinx.physics.binding.bind`.
 """
 import copy
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..errors import InputError
 from . import schema
-from .errors import InputError, brief, brief_path, brief_text
+from .cases import resolve
+from .expressions import to_float, uses_coordinates
+from .reading import apply_overrides, read_toml, set_dotted
 
 
 @dataclass(frozen=True)
@@ -145,7 +147,6 @@ def _check_consistency(values, given):
         check_vector_sizes(values, dim)
 
     contact = values["contact"]
-    from .expressions import to_float, uses_coordinates
     for key in ("c_n", "gap"):
         value = contact[key]
         if not (isinstance(value, str) and uses_coordinates(value)) \
@@ -186,73 +187,6 @@ def check_exponent(m_n, dim):
                          "integrable for every u, v in H¹ only if m_n <= 3 (H^1/2(Γ_C) ⊂ L⁴ in 3D)")
 
 
-# --- reading ------------------------------------------------------------------------------------------
-
-TOO_MANY_DIGITS = "an integer of more digits than any number a problem holds (no float has them)"
-
-
-def parse_value(text):
-    """A ``--set`` value: TOML syntax when it parses (numbers, lists, tables, booleans), else a string."""
-    try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        return text
-    except RecursionError:  # tomllib parses nested arrays and tables recursively
-        raise InputError(f"--set value {brief(text)} is nested too deeply") from None
-    except ValueError:  # an integer of more digits than Python converts (4300)
-        raise InputError(f"--set value {brief(text)}: {TOO_MANY_DIGITS}") from None
-
-
-def set_dotted(table, dotted, value):
-    *path, last = dotted.split(".")
-    for part in path:
-        table = table.setdefault(part, {})
-        if not isinstance(table, dict):
-            raise InputError(f"cannot set '{brief_text(dotted)}': '{brief_text(part)}' is not a table")
-    table[last] = value
-
-
-def apply_overrides(data, overrides):
-    """Apply ``section.key=value`` overrides (the ``--set`` option) to a raw problem table."""
-    for item in overrides or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise InputError(f"--set expects KEY=VALUE, got '{brief_text(item)}'")
-        if "." not in key.strip() and key.strip() not in ("title", "description"):
-            raise InputError(f"--set {brief_text(key.strip())}: give section.key, e.g. contact.m_n=2")
-        set_dotted(data, key.strip(), parse_value(value.strip()))
-    return data
-
-
-def read_toml(path):
-    path = Path(path)
-    shown = brief_path(path)
-    check_file(path, "problem file")
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as err:
-        raise InputError(f"malformed TOML in '{shown}': {err}") from None
-    except UnicodeDecodeError:
-        raise InputError(f"problem file '{shown}' is not a text (UTF-8) TOML file") from None
-    except RecursionError:  # tomllib parses nested arrays and tables recursively
-        raise InputError(f"problem file '{shown}' nests arrays or tables too deeply") from None
-    except ValueError:  # an integer of more digits than Python converts (4300)
-        raise InputError(f"problem file '{shown}': {TOO_MANY_DIGITS}") from None
-    except OSError as err:
-        raise InputError(f"cannot read problem file '{shown}': {err.strerror}") from None
-
-
-def check_file(path, what):
-    """Raise InputError unless ``path`` is a readable file (a name too long, a folder, a missing file)."""
-    try:
-        found = Path(path).is_file()
-    except OSError as err:  # ENAMETOOLONG, ELOOP, EACCES on a parent folder
-        raise InputError(f"{what} '{brief_path(path)}': {err.strerror}") from None
-    if not found:
-        raise InputError(f"{what} '{brief_path(path)}' not found")
-
-
 def load_problem(source, overrides=(), name=None):
     """A :class:`Problem` from a built-in case name (:func:`case_names`) or a TOML problem file, with
     ``--set``-style overrides ``"section.key=value"`` (TOML syntax for the value). Raises
@@ -260,7 +194,6 @@ def load_problem(source, overrides=(), name=None):
 
     >>> problem = load_problem("block", ["contact.m_n=2"])
     """
-    from .cases import resolve
     path = resolve(source)
     data = apply_overrides(read_toml(path), overrides)
     return Problem.from_dict(data, name or path.stem, source=path, overrides=tuple(overrides))

@@ -15,9 +15,10 @@ from mpi4py import MPI
 
 import nc_dolfinx as nc
 
-from . import columns, interrupt, output, postprocess, provenance, vtu
-from .solver import petsc_options
-from .errors import InputError
+from ..errors import InputError
+from ..output import columns, files, postprocess, provenance, vtu
+from ..solver import petsc_options
+from . import interrupt
 
 DOUBTFUL_FRACTION = 0.1  # penetration or |u| beyond this part of the body's diameter: warn
 
@@ -28,7 +29,7 @@ class CaseRun:
     def __init__(self, problem, settings, out, args, cli_options, comm, say):
         self.problem, self.settings, self.args, self.comm, self.say = problem, settings, args, comm, say
         self.cli_options = cli_options
-        self.folder = output.ResultFolder(out, comm, overwrite=args.overwrite)
+        self.folder = files.ResultFolder(out, comm, overwrite=args.overwrite)
         self.history, self.steps, self.warnings, self.doubtful = [], [], [], set()
         self.petsc = {"problem_file": dict(problem["solver.petsc_options"]), "command_line": dict(cli_options)}
         self.stage_name = "level 0"
@@ -81,7 +82,7 @@ class CaseRun:
         """Once level 0 is solved every option the solver reads has been read: refuse unused ones."""
         user = {**self.petsc["problem_file"], **self.cli_options}
         allow = self.args.allow_unused_petsc_options
-        for text in output.on_rank0(self.comm, lambda: petsc_options.check_user_options(user, allow), "PETSc"):
+        for text in files.on_rank0(self.comm, lambda: petsc_options.check_user_options(user, allow), "PETSc"):
             self.warn(text)
         self.petsc["in_effect"] = petsc_options.options_in_effect()
         self.diameter = body_diameter(level.u.function_space.mesh)
@@ -109,7 +110,7 @@ class CaseRun:
         n_owned = msh.topology.index_map(msh.topology.dim).size_local
         region = vtu.dg0_values(level.fields.domain.region, n_owned)[:, 0].astype(np.int32)
         with self.folder.staged() as stage:
-            output.on_rank0(self.comm, lambda: (stage / "levels").mkdir(), stage / "levels")
+            files.on_rank0(self.comm, lambda: (stage / "levels").mkdir(), stage / "levels")
             postprocess.write_xdmf(self.comm, stage / "levels" / f"{name}.xdmf", msh, [u, *est.fields.values()])
             vtu.write(self.comm, stage / "levels", name, {"displacement": u, "contact_pressure": pressure},
                       {"stress": stress, "von_mises": von_mises, **est.fields}, {"region": region})
@@ -128,34 +129,34 @@ class CaseRun:
         if not self.args.quiet:
             self.say("  uniform refinement for comparison:")
         rows = nc.adapt(self.problem, uniform, comm=self.comm, petsc_options=self.cli_options).history
-        output.on_rank0(self.comm, lambda: (
-            self.folder.replace("history_uniform.json", output.json_writer(rows)),
-            self.folder.replace("history_uniform.csv", output.text_writer(output.csv_text(rows)))), self.out)
+        files.on_rank0(self.comm, lambda: (
+            self.folder.replace("history_uniform.json", files.json_writer(rows)),
+            self.folder.replace("history_uniform.csv", files.text_writer(files.csv_text(rows)))), self.out)
         return rows
 
     def plot(self, histories):
-        from .plots import convergence_plot
+        from ..output.plots import convergence_plot
         title = self.problem.title.split(":")[0]
-        output.on_rank0(self.comm, lambda: self.folder.replace(
+        files.on_rank0(self.comm, lambda: self.folder.replace(
             "convergence.png", lambda path: convergence_plot(path, histories, title)), self.out / "convergence.png")
 
     # --- records -------------------------------------------------------------------------------------
     def write_records(self, status):
         """Collective (rank 0 writes): history, the ParaView collection and, last, the summary."""
-        output.on_rank0(self.comm, lambda: self.write_records_here(status), self.out)
+        files.on_rank0(self.comm, lambda: self.write_records_here(status), self.out)
 
     def write_records_here(self, status):
         """The records, written by the calling rank alone."""
         folder = self.folder
-        folder.replace("history.json", output.json_writer(self.history))
-        folder.replace("history.csv", output.text_writer(output.csv_text(self.history)))
+        folder.replace("history.json", files.json_writer(self.history))
+        folder.replace("history.csv", files.text_writer(files.csv_text(self.history)))
         folder.replace("solution.pvd", lambda path: vtu.write_pvd(path, self.steps))
-        folder.replace("summary.json", output.json_writer(self.summary(status)))
+        folder.replace("summary.json", files.json_writer(self.summary(status)))
 
     def summary(self, status):
         last = self.history[-1] if self.history else {}
         data = {
-            "program": output.PROGRAM, "version": nc.__version__, "status": status,
+            "program": files.PROGRAM, "version": nc.__version__, "status": status,
             "reason": self.reason, "stop_reason": self.stop_reason if status == "completed" else None,
             "stopped_at_level": {"completed": last.get("level"), "running": None}.get(status, len(self.history)),
             "problem": self.problem.name, "title": self.problem.title, "source": str(self.problem.source),
@@ -171,7 +172,7 @@ class CaseRun:
             "settings": dataclasses.asdict(self.settings), "resolved": self.problem.to_dict(),
             "petsc_options": self.petsc, "versions": self.versions,
             "command": provenance.command_line(self.comm),
-            "columns": {key: columns.describe(key) for key in output.csv_columns(self.history)},
+            "columns": {key: columns.describe(key) for key in files.csv_columns(self.history)},
             "sign_conventions": columns.SIGN_CONVENTIONS,
         })
         return data

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 PROGRAM = "nc_dolfinx"  # summary.json "program": marks a folder --overwrite may empty
 _UMASK = os.umask(0)

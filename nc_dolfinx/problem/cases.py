@@ -1,10 +1,10 @@
 """Built-in cases: problem files shipped in ``nc_dolfinx/cases/``, found by name."""
 from pathlib import Path
 
-from .errors import InputError, brief_text
-from .problem import check_file, read_toml
+from ..errors import InputError, brief_text
+from .reading import check_file, read_toml
 
-CASES_DIR = Path(__file__).parent / "cases"
+CASES_DIR = Path(__file__).parents[1] / "cases"
 
 
 def case_titles():

@@ -28,8 +28,8 @@ from functools import reduce
 
 import ufl
 
-from .expressions import positive_part
-from .physics import normal_stress
+from ..physics.elasticity import normal_stress
+from ..problem.expressions import positive_part
 
 ON_FACET = 1e-8  # λ_k above this at a quadrature point: vertex k belongs to the facet (the opposite one has 0)
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import ufl
 
-from . import physics
-from .expressions import positive_part
+from ..problem.expressions import positive_part
+from . import elasticity
 
 # Quadrature degree on Γ_C: the integrands contain (u_n − g_0)_+ whose kink may lie inside a facet.
 CONTACT_QUADRATURE_DEGREE = 8
@@ -71,7 +71,7 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
     n = ufl.FacetNormal(fields.domain.mesh)
     c_n = fields.c_n if c_n_scale is None else c_n_scale * fields.c_n
-    a = ufl.inner(fields.sigma(du), physics.strain(v)) * ufl.dx
+    a = ufl.inner(fields.sigma(du), elasticity.strain(v)) * ufl.dx
     dC = contact_measure(fields)
     j_n = contact_pressure(u, fields, n, c_n) * normal_displacement(v, n) * dC
     L = ufl.inner(fields.f, v) * ufl.dx
@@ -100,4 +100,4 @@ def energy(u, fields):
 
 def elastic_energy(u, fields):
     """½ a(u, u)."""
-    return 0.5 * ufl.inner(fields.sigma(u), physics.strain(u)) * ufl.dx
+    return 0.5 * ufl.inner(fields.sigma(u), elasticity.strain(u)) * ufl.dx
