@@ -88,6 +88,10 @@ def generate(staging):
     for picture in DOCS.glob("*.png"):
         _copy_if_changed(picture, generated / "figures" / picture.name)
     demos = sorted((ROOT / "demos").glob("demo_*.py"))
+    for stale in (staging / "demos").glob("demo_*.md"):  # the page of a demo that is gone
+        if not (ROOT / "demos" / f"{stale.stem}.py").is_file():
+            stale.unlink()
+            shutil.rmtree(stale.with_name(f"{stale.stem}_files"), ignore_errors=True)
     for demo in demos:
         start = time.monotonic()
         demo_pages.write_page(demo, staging / "demos")

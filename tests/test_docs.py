@@ -139,7 +139,7 @@ def test_verification_page_shows_the_report_and_its_pictures(site, browser):
     open_page(browser, html, "verification.html")
     pictures = re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", (ROOT / "verification" / "report.md").read_text())
     assert_pictures_render(browser, at_least=len(pictures))
-    assert "Overall: PASS" in browser.page_source or "Overall:" in browser.page_source
+    assert "Overall:" in browser.page_source  # the report's verdict line
 
 
 def test_guide_lists_every_problem_file_key(site):

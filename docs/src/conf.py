@@ -24,7 +24,9 @@ author = "nc_dolfinx authors"
 copyright = "nc_dolfinx authors"
 version = release = nc_dolfinx.__version__
 
-extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ext.mathjax"]
+# No napoleon: the docstrings are prose (reST roles and literals), and napoleon would read "the X: ..." in an
+# attribute's docstring as a type.
+extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.mathjax"]
 source_suffix = {".md": "markdown"}
 root_doc = "index"
 # _generated/ holds files that pages include (the key table, the verification report): not pages themselves
@@ -35,9 +37,6 @@ myst_heading_anchors = 3          # [text](#a-heading) links within a page
 
 autodoc_member_order = "bysource"
 autodoc_typehints = "signature"
-autodoc_default_options = {"show-inheritance": False}
-napoleon_google_docstring = True
-napoleon_numpy_docstring = True
 
 html_theme = "furo"
 html_title = f"nc_dolfinx {release}"
