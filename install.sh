@@ -4,6 +4,8 @@
 # runs this script in root file systems of trixie and sid: .ci/rootfs). Used by the README quickstart,
 # .ci/run and the Dockerfile alike. Idempotent.
 # libopenblas0-serial replaces the reference BLAS under MUMPS (LU/Cholesky about 2x faster, measured).
+# python3-sphinx, python3-myst-parser, furo: the documentation site (docs/build.py); chromium, chromium-driver,
+#   python3-selenium: tests/test_docs.py opens the built site in headless Chromium (pictures really render).
 # python3-venv and python3-setuptools: `pip install .` into a venv on top of these packages
 #   /usr/bin/python3 -m venv --system-site-packages VENV && VENV/bin/pip install --no-build-isolation .
 # (tests/test_packaging.py does exactly that).
@@ -12,7 +14,8 @@
 set -eu
 PACKAGES="python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-gmsh python3-h5py
 python3-numpy python3-scipy python3-sympy python3-matplotlib python3-pytest python3-hypothesis openmpi-bin gcc python3-dev
-libopenblas0-serial python3-venv python3-setuptools"
+libopenblas0-serial python3-venv python3-setuptools
+python3-sphinx python3-myst-parser furo chromium chromium-driver python3-selenium"
 if [ "${1:-}" = "--paraview" ]; then
     PACKAGES="$PACKAGES paraview python3-paraview xvfb xauth"
 fi

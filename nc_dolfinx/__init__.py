@@ -14,7 +14,7 @@ SOLVE → ESTIMATE → MARK → REFINE loop, on DOLFINx 0.5.2, 0.9 and 0.11 (Deb
     child = nc.refine(domain, nc.mark(est, theta=0.5))        # one adaptive step
     result = nc.adapt(problem, on_level=print)                # the whole loop
 
-See docs/api.md and demos/.
+See the API page of the documentation (docs/src/api.md; build the site with docs/build.py) and demos/.
 """
 __version__ = "0.2.0"
 

@@ -138,13 +138,6 @@ def test_every_case_file_validates_and_the_reference_lists_every_key():
             assert f"`{key.path}`" in text, key.path
 
 
-def test_readme_key_reference_is_the_generated_one():
-    readme = (ROOT / "README.md").read_text()
-    start, end = "<!-- schema:start -->", "<!-- schema:end -->"
-    assert start in readme and end in readme
-    assert readme.split(start)[1].split(end)[0].strip() == schema.reference_markdown().strip()
-
-
 @pytest.mark.parametrize("text,value", [("2*pi", 2 * np.pi), ("max(1, -2)**2 + pos(-3)", 1.0),
                                         ("sqrt(abs(-16)) / 2", 2.0), ("-2**2", -4.0)])
 def test_expressions(text, value):

@@ -74,8 +74,10 @@ def patch_sum(o, Q):
     owned-cell ``o`` — the sum over the patch in ζ_K of Definition 5.
 
     Inclusion–exclusion over the sub-simplices s of K (a cell K' ∈ ω_K meets K in one sub-simplex, whose
-    own sub-simplices count K' with alternating signs summing to one):
+    own sub-simplices count K' with alternating signs summing to one)::
+
         Σ_{K' ⊂ ω_K} o_K' = Σ_{d=0}^{tdim} (−1)^d Σ_{s ⊂ K, dim s = d} S_s,   S_s = Σ_{K' ∋ s} o_K'.
+
     For vertices (and edges in 3D) S_s is added up over the owned cells of every rank (reverse scatter on
     index_map(d) to the owners, forward scatter back). The facet and cell terms together are
     (−1)^{tdim−1} (tdim·o_K + Σ_{N ~ K} o_N) (N: the facet neighbours, from the facet ghosts). In 2D this
