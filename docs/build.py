@@ -4,7 +4,8 @@
 
 1. copies the sources docs/src/ to DIR/src/ (a staging tree, so a build writes nothing into the repository
    outside DIR) and generates there, under ``_generated/`` (files that pages include, not pages):
-   ``keys.md`` (the problem-file key table, docs/keys.py; the guide does ``{include} _generated/keys.md``),
+   ``keys.md`` and ``columns.md`` (the problem-file keys and the output columns, docs/reference_tables.py;
+   the guide includes both),
    ``verification/`` (verification/report.md, its headings one level down, and its pictures; the
    verification page does ``{include} _generated/verification/report.md`` with ``:relative-images:``) and
    ``figures/`` (the pictures docs/*.png), and the demo pages ``demos/demo_*.md``: every demo executed
@@ -33,7 +34,7 @@ SOURCE = DOCS / "src"
 sys.path.insert(0, str(DOCS))
 
 import demo_pages  # noqa: E402
-import keys  # noqa: E402
+import reference_tables  # noqa: E402
 
 
 def _copy_if_changed(source, target):
@@ -80,7 +81,7 @@ def shift_headings(markdown):
 def generate(staging):
     """The generated inputs: key table, verification report, figures (``_generated/``), demo pages."""
     generated = staging / "_generated"
-    keys.write(generated / "keys.md")
+    reference_tables.write(generated)
     report = ROOT / "verification" / "report.md"
     _write_if_changed(generated / "verification" / "report.md", shift_headings(report.read_text()))
     for picture in (ROOT / "verification").glob("*.png"):

@@ -142,14 +142,16 @@ def test_verification_page_shows_the_report_and_its_pictures(site, browser):
     assert "Overall:" in browser.page_source  # the report's verdict line
 
 
-def test_guide_lists_every_problem_file_key(site):
-    """The guide includes the key table docs/build.py generates from the schema (docs/keys.py)."""
+def test_guide_lists_every_problem_file_key_and_output_column(site):
+    """The guide includes the tables docs/build.py generates from the schema and the output columns
+    (docs/reference_tables.py): every key and every column appears on the built page."""
     html, _ = site
-    spec = importlib.util.spec_from_file_location("docs_keys", ROOT / "docs" / "keys.py")
-    keys = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(keys)
-    paths = re.findall(r"^\| `([^`]+)` \|", keys.key_table(), flags=re.M)
-    assert len(paths) > 20, paths
+    spec = importlib.util.spec_from_file_location("reference_tables", ROOT / "docs" / "reference_tables.py")
+    tables = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tables)
     page = (html / "guide.html").read_text()
-    missing = [path for path in paths if f">{path}<" not in page]
-    assert not missing, f"keys not in the guide (it should include _generated/keys.md): {missing}"
+    for what, table in (("keys", tables.key_table()), ("columns", tables.column_table())):
+        names = re.findall(r"^\| `([^`]+)` \|", table, flags=re.M)
+        assert len(names) > 20, names
+        missing = [name for name in names if f">{name}<" not in page]
+        assert not missing, f"{what} not in the guide (it should include _generated/{what}.md): {missing}"

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import ROOT, history, summary
+from conftest import history, summary
 from test_bad_input import cli
 
 RUN = ["block", "--refine", "adaptive", "--levels", "2", "--set", "mesh.cells=[8,4]", "--quiet"]
@@ -141,13 +141,6 @@ def test_every_column_is_documented(tmp_path, result):
         header = (folder / "history.csv").read_text().splitlines()[0].split(",")
         assert [c for c in header if columns.describe(c) is None] == []
         assert set(summary(folder)["columns"]) == set(header)
-
-
-def test_readme_output_reference_is_generated():
-    from nc_dolfinx.output import columns
-    readme = (ROOT / "README.md").read_text()
-    start, end = "<!-- columns:start -->\n", "<!-- columns:end -->"
-    assert readme[readme.index(start) + len(start):readme.index(end)] == columns.markdown()
 
 
 def test_vtu_writer_in_3d(tmp_path):

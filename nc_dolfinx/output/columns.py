@@ -1,8 +1,8 @@
 """What every output column and field means, with its sign convention.
 
-One table serves ``summary.json`` (``columns``, ``sign_conventions``) and the README's Output section
-(``python3 -m nc_dolfinx.output.columns`` prints the block between ``<!-- columns:start -->`` and
-``<!-- columns:end -->``). ν is the outward unit normal of the body, u_n = u·ν, p the contact pressure.
+One table serves ``summary.json`` (``columns``, ``sign_conventions``) and the user guide's output
+section (generated at build time by ``docs/reference_tables.py``; ``python3 -m nc_dolfinx.output.columns``
+prints it). ν is the outward unit normal of the body, u_n = u·ν, p the contact pressure.
 """
 
 SIGN_CONVENTIONS = [
@@ -70,7 +70,7 @@ def describe(name):
 
 
 def markdown():
-    """The README's column and field reference."""
+    """The column and field reference of the user guide, as Markdown."""
     lines = ["| column | meaning |", "|---|---|"]
     lines += [f"| `{name}` | {doc} |" for name, doc in COLUMNS.items()]
     lines += ["", "| field | meaning |", "|---|---|"]
