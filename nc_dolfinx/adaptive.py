@@ -20,6 +20,7 @@ from dolfinx import fem
 from . import dolfinx_versions as versions
 from .estimator import indicators, marking
 from .mesh import refinement
+from .mesh.balance import imbalance
 from .physics import forms, quantities
 from .physics.binding import bind
 from .problem import schema
@@ -218,7 +219,8 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
 
 def _row(number, domain, solution, est):
     stats, dim = solution.stats, domain.mesh.geometry.dim
-    row = {"level": number, "dofs": dim * domain.num_vertices(), "cells": domain.num_cells(), **est.totals,
+    row = {"level": number, "dofs": dim * domain.num_vertices(), "cells": domain.num_cells(),
+           "imbalance": imbalance(domain.mesh), **est.totals,
            "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
            "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix,
            "recoveries": stats.recoveries}

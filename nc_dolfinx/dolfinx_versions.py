@@ -195,7 +195,7 @@ def create_serial_mesh(comm, cells, x):
 
 # --- refinement --------------------------------------------------------------------------------
 
-def refine_keeping_ranks(msh, edges=None):
+def refine_keeping_ranks(msh, edges=None, unique_ghosts=True):
     """Plaza refinement of ``edges`` (local indices; ``None``: every edge) whose children stay on their
     parent's rank, with a ghost layer of facet neighbours.
 
@@ -209,16 +209,40 @@ def refine_keeping_ranks(msh, edges=None):
       (seen on 3 ranks: one interior edge missing from the jumps of η_2). When that happens (two ghost
       cells with the same vertices on some rank) the child is re-created with each ghost once
       (:func:`_rebuild_with_unique_ghosts`: about two thirds of a refinement, 0.17 s against 0.26 s in 3D
-      at 9.2e4 dofs on 2 ranks, so only when needed)."""
+      at 9.2e4 dofs on 2 ranks, so only when needed). ``unique_ghosts=False`` skips it, for a child that
+      is about to be re-created anyway (:func:`create_balanced_mesh`); :func:`with_unique_ghosts` does it
+      later."""
     if V05:
         child = dmesh.refine(msh, edges, redistribute=False) if edges is not None else \
             dmesh.refine(msh, redistribute=False)
-        if msh.comm.size > 1 and _has_duplicate_ghosts(child):
-            child = _rebuild_with_unique_ghosts(child)
-        return child
+        return with_unique_ghosts(child) if unique_ghosts else child
     if V011:
         return dmesh.refine(msh, edges)[0]
     return dmesh.refine(msh, edges, partitioner=_keep_ranks_with_facet_ghosts)[0]
+
+
+def with_unique_ghosts(msh):
+    """0.5.2 only: ``msh``, or the same mesh re-created with each ghost cell once if refinement doubled some
+    (:func:`refine_keeping_ranks`); other versions never double them."""
+    if V05 and msh.comm.size > 1 and _has_duplicate_ghosts(msh):
+        return _rebuild_with_unique_ghosts(msh)
+    return msh
+
+
+def create_balanced_mesh(comm, cells, x, like):
+    """A mesh of ``cells`` (owned by this rank: global node numbers, one row per cell) and of this rank's
+    block ``x`` of the nodes (numbered by rank, in rank order), partitioned anew by DOLFINx's graph
+    partitioner (ParMETIS, SCOTCH or KaHIP, whichever DOLFINx was built with) and ghosted by shared facets;
+    ``like``: a mesh of the same cell and coordinate element. 0.5.2's ``create_mesh`` does exactly this by
+    default; 0.9 and 0.11 build no ghosts unless given the partitioner (0.11's also takes the number of
+    cells a facet may have); keywords serve both of their argument orders."""
+    cells = np.asarray(cells, dtype=np.int64)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if V05:
+        return dmesh.create_mesh(comm, cells, x, like.ufl_domain())
+    mode = (dmesh.GhostMode.shared_facet, 2) if V011 else (dmesh.GhostMode.shared_facet,)
+    return dmesh.create_mesh(comm, cells=cells, x=x, e=like.ufl_domain(),
+                             partitioner=dmesh.create_cell_partitioner(*mode))
 
 
 def _has_duplicate_ghosts(msh):

@@ -108,3 +108,21 @@ def test_point_matching(gdim):
     np.testing.assert_array_equal(_match_points(square, np.array([[2.0 ** -29, 2.0], [1.0, 1.0]])), [-1, 1])
     merged = np.concatenate([known, known[:1] + 1e-14])  # two known points closer than the rounding
     assert np.all(_match_points(merged, wanted) == -1)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("nprocs", [2, 3])
+def test_rebalanced_child_is_the_same_mesh_with_the_same_data(dim, nprocs):
+    """Refinement towards one corner leaves the ranks unequally busy (a child on its parents' ranks: the
+    busiest rank owns > 1.15 × the mean here); the rebalanced child (issue 30) owns ≤ 1.10 × the mean on
+    every rank and is the very same mesh: every owned cell with its region, every boundary facet with its
+    group and every dof of the transferred P1 field (non-linear nodal values) with its value equal, as sets
+    over all ranks, to those of the child that was not moved (tests/mpi/balance_check.py)."""
+    proc = run([ROOT / "tests" / "mpi" / "balance_check.py", str(dim), "3"], nprocs, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    levels = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+    assert [level["level"] for level in levels] == [1, 2, 3]
+    for level in levels:
+        assert level["imbalance_unbalanced"] > 1.15 and level["moved"], level
+        assert level["imbalance"] <= 1.10, level
+        assert level["same_cells"] and level["same_facets"] and level["same_field"], level

@@ -11,32 +11,53 @@ simplices (see :mod:`nc_dolfinx.mesh.domain`). All of this holds for triangles a
 
 Every supported DOLFINx refines this way (:func:`nc_dolfinx.dolfinx_versions.refine_keeping_ranks`: natively
 on 0.11, with a partitioner of ours on 0.9, and on 0.5.2 with a repair of the doubled ghosts its
-``redistribute=False`` can leave).
+``redistribute=False`` can leave). Then, under MPI, a child that left the ranks unequally busy is
+partitioned anew and the regions and displacement follow their cells and nodes (:mod:`.balance`).
 """
+import weakref
+
 import numpy as np
 
 from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
+from .balance import IMBALANCE_LIMIT, imbalance, rebalance
 from .domain import Domain, region_function, tag_exterior_facets
 
+_MOVES = weakref.WeakKeyDictionary()  # rebalanced child mesh -> the Move that made it (for transfer)
 
-def refine(domain, cells=None):
+
+def refine(domain, cells=None, balance=True):
     """REFINE: Plaza refinement of the owned ``cells`` (local indices, e.g. from :func:`mark`; ``None``:
     every cell, uniform refinement) and the edges needed for conformity. Returns the new
     :class:`Domain`, its boundary groups re-tagged from the level-0 boundary and its material regions
-    carried over; cells stay on their rank."""
-    msh, tdim = domain.mesh, domain.mesh.topology.dim
+    carried over. Children are made on their parent's rank; with ``balance`` (the default) a child whose
+    busiest rank owns more than ``IMBALANCE_LIMIT`` × the mean of the cells is partitioned anew
+    (:mod:`nc_dolfinx.mesh.balance`), and :func:`transfer` to its spaces fetches values across ranks."""
+    msh = domain.mesh
     msh.topology.create_entities(1)  # Plaza needs the edges, also for uniform refinement of tetrahedra
-    child = versions.refine_keeping_ranks(msh, None if cells is None else versions.incident_edges(msh, cells))
-    n_owned = child.topology.index_map(tdim).size_local
-    if len(domain.cell_groups) == 1:  # one region: nothing to locate
-        regions = np.full(n_owned, next(iter(domain.cell_groups.values())))
+    edges = None if cells is None else versions.incident_edges(msh, cells)
+    child = versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
+    if balance and msh.comm.size > 1 and imbalance(child) > IMBALANCE_LIMIT:
+        regions = _child_regions(domain, child)
+        child, move = rebalance(child)
+        regions = move.cell_values(child.comm, regions)
+        _MOVES[child] = move
     else:
-        midpoints = dmesh.compute_midpoints(child, tdim, np.arange(n_owned, dtype=np.int32))
-        regions = np.rint(evaluate(domain.region, midpoints)[:, 0])
+        child = versions.with_unique_ghosts(child)
+        regions = _child_regions(domain, child)
     return Domain(child, tag_exterior_facets(child, domain.boundary), region_function(child, regions),
                   domain.facet_groups, domain.cell_groups, domain.boundary)
+
+
+def _child_regions(domain, child):
+    """The region id of every owned child cell: its parent's (found at the child's midpoint)."""
+    tdim = child.topology.dim
+    n_owned = child.topology.index_map(tdim).size_local
+    if len(domain.cell_groups) == 1:  # one region: nothing to locate
+        return np.full(n_owned, next(iter(domain.cell_groups.values())))
+    midpoints = dmesh.compute_midpoints(child, tdim, np.arange(n_owned, dtype=np.int32))
+    return np.rint(evaluate(domain.region, midpoints)[:, 0])
 
 
 def evaluate(function, points):
@@ -58,8 +79,13 @@ def transfer(function, space):
 
     Only the vertices of *owned* child cells are sure to lie in local parent cells (their parents are
     owned here); a dof's owner may hold it through ghost cells only. So every rank computes the dofs of its
-    owned cells, and the owners average what they receive (reverse scatter of values and of counts).
+    owned cells, and the owners average what they receive (reverse scatter of values and of counts). On a
+    rebalanced child the values are computed where the parents are and fetched by the ranks that hold the
+    nodes now (:class:`~nc_dolfinx.mesh.balance.Move`).
     """
+    move = _MOVES.get(space.mesh)
+    if move is not None:
+        return _moved(function, space, move)
     out, count = fem.Function(space, name=function.name), fem.Function(space)
     bs = space.dofmap.index_map_bs
     n_cells = space.mesh.topology.index_map(space.mesh.topology.dim).size_local
@@ -76,6 +102,19 @@ def transfer(function, space):
         raise RuntimeError("internal error: a dof of the refined mesh was not reached by the transfer")
     out.x.array[:n_owned] /= count.x.array[:n_owned]
     out.x.scatter_forward()
+    return out
+
+
+def _moved(function, space, move):
+    """:func:`transfer` to a rebalanced child: the values at the nodes of the cells this rank owned before
+    the move (exact, as above), then every local node's value fetched from its old owner. A P1 dof is a
+    node of the mesh: the cells' dofs and nodes are listed in the same order."""
+    out = fem.Function(space, name=function.name)
+    bs = space.dofmap.index_map_bs
+    values = move.node_values(space.mesh.comm, _values_at_child_vertices(function, move.points))
+    dof_of_node = np.empty(len(values), dtype=np.int64)
+    dof_of_node[versions.geometry_nodes(space.mesh).ravel()] = versions.cell_dofs(space.dofmap).ravel()
+    out.x.array.reshape(-1, bs)[dof_of_node] = values
     return out
 
 

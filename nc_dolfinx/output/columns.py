@@ -18,6 +18,8 @@ COLUMNS = {
     "level": "refinement level, 0 = the initial mesh",
     "dofs": "degrees of freedom: dimension × vertices (Dirichlet ones included)",
     "cells": "cells (triangles in 2D, tetrahedra in 3D)",
+    "imbalance": "owned cells of the busiest rank over the mean (1 on one rank); a refined mesh above 1.05 is "
+                 "partitioned anew",
     "eta_1": "η_1 = (Σ_K η_1K²)^½, η_1K = h_K ‖f_K‖_K (body force; Definition 5)",
     "eta_2": "η_2: jumps of σ(u_h)ν on interior facets and σ(u_h)ν − g on Γ_N (Definition 5)",
     "eta_3": "η_3: tangential stress σ_t(u_h) on Γ_C (Definition 5)",
