@@ -12,18 +12,26 @@ level's mesh), and, measured inside ``on_level`` (outside those phases):
 
 - ``dolfinx``: DOLFINx's own ``dolfinx.mesh.refine`` of the same marked cells (children kept on their
   parent's rank, as ``nc.refine`` calls it: ``redistribute=False`` on DOLFINx 0.5.2) — against
-  ``nc.refine``'s time on the next level (issue 13: at most 1.2×);
+  ``nc.refine``'s time on the next level (issue 13: at most 1.2×); ``dflt``: DOLFINx's plain
+  ``refine(msh, edges)`` (on 0.5.2 it partitions the child anew, as a rebalanced ``nc.refine`` does);
 - with ``--floor``: one linear elasticity solve on the level's mesh (``common.LinearFloor``, CG + GAMG as in
   DOLFINx's demo_elasticity.py, rtol 1e-8), and the level's SNES time over it (issue 13: at most 1.2× on
   nested levels); the same floor with ML instead of GAMG (PETSc 3.18's GAMG sets up slowly on refined
   meshes), for context;
-- the peak resident memory so far (largest rank).
+- the peak resident memory so far (largest rank) and the largest rank's over the mean (issue 30: ≤ 1.2);
+- ``imbalance``: the owned cells of the busiest rank over the mean (the history column; issue 30: ≤ 1.10),
+  and ``unbal``: ``nc.refine(..., balance=False)`` of the same marked cells, timed in ``on_level``: the
+  next level's ``time_refine`` less this is what rebalancing cost (``rebal``, and ``rebal/ref`` its share
+  of the refinement it follows; issue 30: ≤ 25 %).
+
+``hertz3d`` runs the built-in case of that name (a gmsh mesh, contact at one point) instead.
 """
 import argparse
 import csv
 import json
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -35,7 +43,9 @@ from run import BOX  # noqa: E402
 
 def problem_and_settings(args):
     import nc_dolfinx as nc
-    if args.problem == "box":
+    if args.problem == "hertz3d":
+        problem = nc.load_problem("hertz3d")
+    elif args.problem == "box":
         problem = nc.Problem.from_dict(BOX, "box").replace({"mesh.cells": args.cells or [8, 4, 4]})
     else:
         problem = nc.load_problem("block", [f"mesh.cells={args.cells}"] if args.cells else [])
@@ -59,6 +69,11 @@ def worker(args):
         if level.marked is not None:
             build_refinement_connectivity(solution.domain.mesh)
             row["refine_dolfinx_next"] = dolfinx_refine_seconds(solution.domain, level.marked)
+            row["refine_default_next"] = dolfinx_refine_seconds(solution.domain, level.marked, default=True)
+            comm.barrier()
+            start = time.perf_counter()
+            nc.refine(solution.domain, level.marked, balance=False)
+            row["refine_unbalanced_next"] = rank_max(comm, time.perf_counter() - start)
         if args.floor:
             floor = LinearFloor(problem, solution.domain)
             row["floor"], row["floor_its"], _ = floor.solve()
@@ -66,14 +81,17 @@ def worker(args):
                 row["floor_ml"] = floor.solve(amg="ml")[0]
             row["floor_hypre"] = floor.solve(amg="hypre")[0]
             floor.destroy()
-        row["mem_MB"] = rank_max(comm, max_rss_mb())
+        memory = max_rss_mb()
+        row["mem_MB"] = rank_max(comm, memory)
+        row["mem_ratio"] = row["mem_MB"] * comm.size / comm.allreduce(memory)
         extra[level.number] = row
 
     result = nc.adapt(problem, settings, comm=comm, on_level=on_level)
     rows = []
     for history in result.history:
         n = history["level"]
-        row = {"level": n, "dofs": history["dofs"], "np": comm.size, "eta": history["eta"], **extra[n]}
+        row = {"level": n, "dofs": history["dofs"], "np": comm.size, "eta": history["eta"],
+               "imbalance": history["imbalance"], **extra[n]}
         row.update({k: history[k] for k in ("time_solve", "time_estimate", "time_mark", "time_refine")
                     if k in history})
         row["setup"] = row["time_solve"] - row["snes"]
@@ -88,11 +106,18 @@ def worker(args):
         row["refine_dolfinx"] = previous.get("refine_dolfinx_next")
         if row.get("refine_dolfinx"):
             row["refine_over_dolfinx"] = row["time_refine"] / row["refine_dolfinx"]
+        row["refine_default"] = previous.get("refine_default_next")
+        if row.get("refine_default"):
+            row["refine_over_default"] = row["time_refine"] / row["refine_default"]
+        row["refine_unbalanced"] = previous.get("refine_unbalanced_next")
+        if row.get("refine_unbalanced"):
+            row["rebalance"] = max(row["time_refine"] - row["refine_unbalanced"], 0.0)
+            row["rebalance_share"] = row["rebalance"] / row["refine_unbalanced"]
     if comm.rank == 0:
         Path(args.json).write_text(json.dumps({"rows": rows, "stop_reason": result.stop_reason}, default=str))
 
 
-COLUMNS = [("level", "level", "{}"), ("dofs", "dofs", "{}"), ("pc_type", "pc", "{}"),
+COLUMNS = [("level", "level", "{}"), ("dofs", "dofs", "{}"), ("eta", "eta", "{:.10g}"), ("pc_type", "pc", "{}"),
            ("newton", "Nwt", "{}"), ("krylov", "Kry", "{}"), ("pc_setups", "set", "{}"),
            ("setup", "setup", "{:.2f}"), ("snes", "solve", "{:.2f}"), ("floor", "floor", "{:.2f}"),
            ("snes_over_floor", "solve/floor", "{:.2f}"), ("floor_ml", "floor ML", "{:.2f}"),
@@ -100,7 +125,10 @@ COLUMNS = [("level", "level", "{}"), ("dofs", "dofs", "{}"), ("pc_type", "pc", "
            ("time_estimate", "estim", "{:.2f}"),
            ("time_mark", "mark", "{:.3f}"), ("estimate_mark_fraction", "(E+M)/solve", "{:.3f}"),
            ("time_refine", "refine", "{:.2f}"), ("refine_dolfinx", "dolfinx", "{:.2f}"),
-           ("refine_over_dolfinx", "ratio", "{:.2f}"), ("mem_MB", "MB/rank", "{:.0f}")]
+           ("refine_over_dolfinx", "ratio", "{:.2f}"), ("refine_default", "dflt", "{:.2f}"),
+           ("refine_over_default", "ratio", "{:.2f}"), ("refine_unbalanced", "unbal", "{:.2f}"),
+           ("rebalance", "rebal", "{:.2f}"), ("rebalance_share", "rebal/ref", "{:.2f}"),
+           ("imbalance", "imbal", "{:.3f}"), ("mem_MB", "MB/rank", "{:.0f}"), ("mem_ratio", "max/mean", "{:.2f}")]
 
 
 def driver(args):
@@ -131,7 +159,7 @@ def driver(args):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--problem", choices=("box", "block"), default="box")
+    p.add_argument("--problem", choices=("box", "block", "hertz3d"), default="box")
     p.add_argument("--np", type=int, default=2)
     p.add_argument("--cells", type=int, nargs="+", help="level-0 cells (box: 8 4 4, block: 16 8)")
     p.add_argument("--max-dofs", default="1e6")
