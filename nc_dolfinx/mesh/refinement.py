@@ -37,7 +37,7 @@ def refine(domain, cells=None, balance=True):
     msh = domain.mesh
     msh.topology.create_entities(1)  # Plaza needs the edges, also for uniform refinement of tetrahedra
     edges = None if cells is None else versions.incident_edges(msh, cells)
-    child = versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
+    child = _plaza(domain, edges)
     if balance and msh.comm.size > 1 and imbalance(child) > IMBALANCE_LIMIT:
         regions = _child_regions(domain, child)
         child, move = rebalance(child)
@@ -48,6 +48,59 @@ def refine(domain, cells=None, balance=True):
         regions = _child_regions(domain, child)
     return Domain(child, tag_exterior_facets(child, domain.boundary), region_function(child, regions),
                   domain.facet_groups, domain.cell_groups, domain.boundary)
+
+
+def _plaza(domain, edges):
+    """DOLFINx's Plaza refinement of ``edges``, its choices made by the geometry alone.
+
+    Plaza bisects the longest edge of each face; between edges of the same length DOLFINx takes, in 3D,
+    the one opposite the vertex of the largest *global index*, so the numbering (and with it the number of
+    ranks) decided: a box of Kuhn tetrahedra has equal edges in every face, and the adaptive meshes of 1, 2
+    and 3 ranks parted at the sixth level of the benchmark's ``box``. So in 3D the parent is refined with its
+    nodes moved by a fixed function of their position (:func:`_tie_breaker`), and the child's nodes are
+    then put back exactly where they belong: each is a parent node or the midpoint of a parent edge, found
+    as :func:`transfer` finds it. 2D (no index rule; DOLFINx's "uniform" split of a triangle compares an
+    edge ratio with an equality that a move could flip) is refined as it is."""
+    msh = domain.mesh
+    if msh.topology.dim != 3:
+        return versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
+    gdim = msh.geometry.dim
+    exact = msh.geometry.x.copy()
+    position = fem.Function(versions.p1_space(msh, (gdim,)))
+    position.x.array.reshape(-1, gdim)[_dof_of_node(position.function_space)] = exact[:, :gdim]
+    msh.geometry.x[:, :gdim] += _tie_breaker(exact[:, :gdim], domain.boundary[0])
+    try:
+        child = versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
+        child_position = transfer(position, versions.p1_space(child, (gdim,)))
+    finally:
+        msh.geometry.x[:] = exact
+    moved_back = child_position.x.array.reshape(-1, gdim)
+    child.geometry.x[:, :gdim] = moved_back[_dof_of_node(child_position.function_space)]
+    return child
+
+
+TIE_BREAKING_MOVE = 1e-9  # of the body's extent: edge lengths change by parts in 1e9, ties (equal to the
+# last bit) are split, and edges whose lengths differ by more than that keep their order
+_FREQUENCIES = np.sqrt([[2.0, 3.0, 5.0], [7.0, 11.0, 13.0], [17.0, 19.0, 23.0]])  # no two alike: no symmetry
+
+
+def _tie_breaker(x, boundary_vertices):
+    """A small move of each point ``x`` (n, gdim), the same function of its position on every rank."""
+    vertices = boundary_vertices.reshape(-1, x.shape[1])
+    low = vertices.min(axis=0)
+    extent = float(np.max(vertices.max(axis=0) - low))
+    phase = 2 * np.pi * (x - low) / extent
+    dim = x.shape[1]
+    return TIE_BREAKING_MOVE * extent * np.sin(phase @ _FREQUENCIES[:dim, :dim].T + np.arange(1, dim + 1))
+
+
+def _dof_of_node(space):
+    """The P1 dof at each geometry node of the space's mesh (a cell lists its dofs and nodes in the same
+    order: both follow the cell's vertices)."""
+    nodes = versions.geometry_nodes(space.mesh)
+    dof_of_node = np.empty(space.mesh.geometry.x.shape[0], dtype=np.int64)
+    dof_of_node[nodes.ravel()] = versions.cell_dofs(space.dofmap)[:len(nodes)].ravel()
+    return dof_of_node
 
 
 def _child_regions(domain, child):
@@ -110,11 +163,8 @@ def _moved(function, space, move):
     the move (exact, as above), then every local node's value fetched from its old owner. A P1 dof is a
     node of the mesh: the cells' dofs and nodes are listed in the same order."""
     out = fem.Function(space, name=function.name)
-    bs = space.dofmap.index_map_bs
     values = move.node_values(space.mesh.comm, _values_at_child_vertices(function, move.points))
-    dof_of_node = np.empty(len(values), dtype=np.int64)
-    dof_of_node[versions.geometry_nodes(space.mesh).ravel()] = versions.cell_dofs(space.dofmap).ravel()
-    out.x.array.reshape(-1, bs)[dof_of_node] = values
+    out.x.array.reshape(-1, space.dofmap.index_map_bs)[_dof_of_node(space)] = values
     return out
 
 
