@@ -1,9 +1,10 @@
 """Marking: which cells to refine, from the indicators η_K.
 
 Both strategies decide on the global set of indicators, so the marked set does not depend on the number
-of ranks, and neither gathers them: a rank holds its own cells' η_K only (:func:`doerfler_threshold`). Indicators are compared with a relative tolerance (``TIE_RTOL``): values equal up to
-parallel round-off are ties, and ties at the threshold are marked together. Without this a symmetric mesh
-(many exactly equal η_K) would be marked differently on different partitions.
+of ranks, and neither gathers them: a rank holds its own cells' η_K only (:func:`doerfler_threshold`).
+Indicators are compared with a relative tolerance (``TIE_RTOL``): values equal up to parallel round-off
+are ties, and ties at the threshold are marked together. Without this a symmetric mesh (many exactly
+equal η_K) would be marked differently on different partitions.
 """
 import numpy as np
 from mpi4py import MPI
