@@ -65,7 +65,7 @@ def exact_threshold(values, theta):
 
 @pytest.mark.parametrize("theta", [0.01, 0.3, 0.5, 0.9, 1.0])
 @pytest.mark.parametrize("kind", ["lognormal", "ties", "tiny and huge", "one cell"])
-def test_bisection_threshold_is_the_sorted_one_exactly(theta, kind):
+def test_bisection_threshold_is_the_exact_one(theta, kind):
     """The bisection on bit patterns ends on the very value of the definition in exact arithmetic."""
     rng = np.random.default_rng(3)
     values = {"lognormal": rng.lognormal(sigma=3.0, size=5000) ** 2,
@@ -79,7 +79,7 @@ def test_bisection_threshold_is_the_sorted_one_exactly(theta, kind):
 def test_marked_set_of_a_split_set_is_the_serial_one(nprocs):
     """One global set of η_K² (distinct values, exact ties, ties up to round-off, zeros, tiny values) split
     unevenly over 2 and 3 ranks (tests/mpi/doerfler_split.py): the marked global indices are those of the
-    definition on the whole set (sorted threshold, ties at TIE_RTOL), as on one rank."""
+    definition on the whole set (exact threshold, ties at TIE_RTOL), as on one rank."""
     script = ROOT / "tests" / "mpi" / "doerfler_split.py"
     spec = importlib.util.spec_from_file_location("doerfler_split", script)
     split = importlib.util.module_from_spec(spec)
