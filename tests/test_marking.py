@@ -1,5 +1,5 @@
 """Dörfler marking: the bulk criterion holds and the set is minimal (up to ties); the threshold found in
-parallel without gathering is the sorted one exactly, whatever the partition; maximum strategy."""
+parallel without gathering is the one of exact arithmetic, whatever the partition; maximum strategy."""
 import importlib.util
 import json
 from fractions import Fraction
