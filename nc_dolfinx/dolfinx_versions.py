@@ -195,15 +195,20 @@ def create_serial_mesh(comm, cells, x):
 
 # --- refinement --------------------------------------------------------------------------------
 
+REFINEMENT_GIVES_PARENTS = not V05  # the parent maps of a refinement of marked edges (0.5.2: uniform only)
+
+
 def refine_keeping_ranks(msh, edges=None, unique_ghosts=True):
     """Plaza refinement of ``edges`` (local indices; ``None``: every edge) whose children stay on their
-    parent's rank, with a ghost layer of facet neighbours.
+    parent's rank, with a ghost layer of facet neighbours. Returns the child and its parent maps
+    (:func:`_owned_parents`; ``None`` on 0.5.2).
 
     - 0.11: DOLFINx's default (its identity partitioner) does exactly this.
     - 0.9: ``partitioner=None`` keeps the children but builds no ghost cells, and the graph partitioner
       moves them; so a partitioner of our own keeps every cell on its rank and ghosts it on the ranks of
       its facet neighbours, from DOLFINx's dual graph of the child cells (what 0.11 does in C++).
-    - 0.5.2: ``redistribute=False``. Its partitioner sends a cell once per off-rank *neighbour*: a cell
+    - 0.5.2 only: ``redistribute=False``, and no parent maps (its ``plaza_refine_data`` gives them for
+      uniform refinement only). Its partitioner sends a cell once per off-rank *neighbour*: a cell
       with two facet-neighbours on the same rank arrives there twice, and the facet between the duplicate
       ghosts and their neighbour then has three cells and drops out of interior-facet (``dS``) integrals
       (seen on 3 ranks: one interior edge missing from the jumps of η_2). When that happens (two ghost
@@ -215,10 +220,30 @@ def refine_keeping_ranks(msh, edges=None, unique_ghosts=True):
     if V05:
         child = dmesh.refine(msh, edges, redistribute=False) if edges is not None else \
             dmesh.refine(msh, redistribute=False)
-        return with_unique_ghosts(child) if unique_ghosts else child
+        return (with_unique_ghosts(child) if unique_ghosts else child), None
+    option = dmesh.RefinementOption.parent_cell_and_facet
     if V011:
-        return dmesh.refine(msh, edges)[0]
-    return dmesh.refine(msh, edges, partitioner=_keep_ranks_with_facet_ghosts)[0]
+        child, parent_cell, parent_facet = dmesh.refine(msh, edges, option=option)
+    else:
+        child, parent_cell, parent_facet = dmesh.refine(msh, edges, partitioner=_keep_ranks_with_facet_ghosts,
+                                                        option=option)
+    return child, _owned_parents(child, parent_cell, parent_facet)
+
+
+def _owned_parents(child, parent_cell, parent_facet):
+    """0.9 and later: for each owned child cell its parent (a local cell of the parent mesh) and, for each
+    of its local facets, the parent's local facet that contains it (-1: inside the parent), as arrays
+    (n_owned,) and (n_owned, tdim + 1). DOLFINx lists both in the order the children were made, which
+    ``create_mesh`` then reorders; ``original_cell_index`` gives each owned cell its place in that order
+    (numbered on from this rank's first child: the children stay on the rank that made them)."""
+    tdim = child.topology.dim
+    n_owned = child.topology.index_map(tdim).size_local
+    first = child.comm.exscan(len(parent_cell)) or 0
+    made = np.asarray(child.topology.original_cell_index[:n_owned], dtype=np.int64) - first
+    if len(made) and (made.min() < 0 or made.max() >= len(parent_cell)):
+        raise RuntimeError("internal error: a refined cell left the rank of its parent")
+    return (np.asarray(parent_cell)[made],
+            np.asarray(parent_facet, dtype=np.int32).reshape(-1, tdim + 1)[made])
 
 
 def with_unique_ghosts(msh):

@@ -144,7 +144,8 @@ def test_from_dolfinx_2d_names_and_defaults():
                                  {8: "unused"})
     assert domain.facet_groups == {"4": 4, "unused": 8} and domain.cell_groups == {"body": 1}
     assert np.bincount(domain.facet_tags.values).tolist() == [2 * 2 + 4, 0, 0, 0, 4]
-    assert domain.boundary[0].shape == (12, 2, 2) and sorted(domain.boundary[1]) == [0] * 8 + [4] * 4
+    vertices, ids = tagged.gather_boundary(domain.mesh, domain.facet_tags)
+    assert vertices.shape == (12, 2, 2) and sorted(ids) == [0] * 8 + [4] * 4
 
 
 @pytest.mark.parametrize("make, expected", [
@@ -163,6 +164,19 @@ def test_from_dolfinx_refuses(make, expected):
         tagged.from_dolfinx(msh, dmesh.meshtags(msh, facet_dim, empty, empty), None,
                             dmesh.meshtags(msh, cell_dim, empty, empty))
     assert str(err.value) == expected
+
+
+def test_from_dolfinx_refuses_a_facet_with_two_tags():
+    """One facet tagged 1 and 2: refused; tagged 5 twice: in group 5."""
+    from dolfinx import mesh as dmesh
+    msh = dmesh.create_unit_square(COMM, 2, 2)
+    facets = mesh_domain.owned_exterior_facets(msh)
+    twice = np.array([facets[0], facets[0]], dtype=np.int32)
+    with pytest.raises(InputError) as err:
+        tagged.from_dolfinx(msh, dmesh.meshtags(msh, 1, twice, np.array([1, 2], np.int32)))
+    assert str(err.value) == "facet tags: a facet carries two different tags"
+    domain = tagged.from_dolfinx(msh, dmesh.meshtags(msh, 1, twice, np.array([5, 5], np.int32)))
+    assert np.bincount(domain.facet_tags.values).tolist() == [7, 0, 0, 0, 0, 1]
 
 
 def test_from_dolfinx_refuses_tag_zero_and_second_order():
@@ -246,7 +260,7 @@ def test_from_gmsh_3d_file(tmp_path):
     domain = gmsh_io.from_gmsh(COMM, path)
     assert domain.tdim == 3 and domain.num_cells() == num_cells
     assert domain.facet_groups == {"left": 3, "bottom": 4} and domain.cell_groups == {"soft": 1, "hard": 2}
-    vertices, ids = domain.boundary
+    vertices, ids = tagged.gather_boundary(domain.mesh, domain.facet_tags)
     midpoints = vertices.mean(axis=1)
     assert vertices.shape[1:] == (3, 3) and len(ids) == len(domain.facet_tags.indices)
     np.testing.assert_array_equal(ids == 3, np.isclose(midpoints[:, 0], 0))

@@ -4,23 +4,27 @@ A :class:`Domain` is a DOLFINx mesh plus
 - ``facet_tags``: every owned exterior facet tagged with its boundary group id (``UNTAGGED`` = 0 when in none);
 - ``region``: a DG0 function holding each cell's region (material) id;
 - ``boundary``: the level-0 boundary simplices (segments in 2D, triangles in 3D) with their group ids,
-  replicated on every rank.
+  replicated on every rank, where refinement needs them (DOLFINx 0.5.2); ``None`` otherwise.
 
-Boundary facets are tagged *geometrically*: a facet belongs to the group of the level-0 boundary simplex
-that contains its centroid. Plaza refinement only bisects edges, so every descendant of a boundary facet
-lies inside a level-0 one, and the same matcher re-tags the mesh after each refinement, whatever the
-partition or ghost mode (``transfer_facet_meshtag`` in DOLFINx 0.5 needs ``GhostMode.none``, which would
-break interior-facet integrals on partition boundaries).
+After a refinement, a facet keeps its parent's group. DOLFINx 0.9 and later tell the parent of each child
+cell and the parent facet of each child facet (:func:`cell_facet_groups` gives the parent's groups cell by
+cell, :func:`tag_from_cell_facets` tags the child from them): exact and local. DOLFINx 0.5.2 gives these maps
+only for uniform refinement, and its ``transfer_facet_meshtag`` needs ``GhostMode.none``, which would break
+interior-facet integrals on partition boundaries; there (0.5.2 only) facets are tagged *geometrically*: a
+facet belongs to the group of the level-0 boundary simplex that contains its centroid, since Plaza
+refinement only bisects edges and every descendant of a boundary facet lies inside a level-0 one.
 """
 from dataclasses import dataclass, field
 
 import numpy as np
+from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 import dolfinx
 from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
+from ..errors import InputError
 
 UNTAGGED = 0
 _NEAREST = 8  # simplices checked exactly per point before the exhaustive fallback
@@ -34,7 +38,8 @@ class Domain:
     ``mesh``: the DOLFINx mesh (P1 triangles or tetrahedra, ``GhostMode.shared_facet``);
     ``facet_tags``: the owned exterior facets tagged with their group id (``UNTAGGED`` = 0 in none);
     ``region``: a DG0 function of the cells' region ids; ``facet_groups`` / ``cell_groups``: name → id;
-    ``boundary``: the level-0 boundary simplices and their ids, which re-tag every refined mesh.
+    ``boundary``: the level-0 boundary simplices and their ids, which re-tag every refined mesh on DOLFINx
+    0.5.2 (``None`` where refinement gives parent maps, see the module's docstring).
     Made by :func:`rectangle`, :func:`box`, :func:`from_gmsh`, :func:`from_gmsh_model`,
     :func:`from_dolfinx` or :func:`build_domain`; :func:`refine` returns the next one.
     """
@@ -43,7 +48,7 @@ class Domain:
     region: fem.Function
     facet_groups: dict  # name -> id
     cell_groups: dict  # name -> id
-    boundary: tuple = field(repr=False)  # (vertices (n, tdim, gdim) float, group ids (n,) int32)
+    boundary: tuple = field(repr=False)  # (vertices (n, tdim, gdim) float, group ids (n,) int32) or None
 
     @property
     def comm(self):
@@ -150,6 +155,59 @@ def tag_exterior_facets(msh, boundary):
     centroids = dmesh.compute_midpoints(msh, msh.topology.dim - 1, facets)[:, :msh.geometry.dim]
     ids = match_simplices(centroids, boundary, 1e-9 * extent(boundary))
     return dmesh.meshtags(msh, msh.topology.dim - 1, facets, ids)
+
+
+def cell_facet_groups(msh, facet_tags):
+    """The group of each local facet of every local cell, (n_cells, tdim + 1) ordered as the cell's facets
+    (UNTAGGED where none), from ``facet_tags`` on any local copies of the facets. A facet tagged on several
+    ranks must carry one value (else :class:`InputError`, on every rank)."""
+    tdim = msh.topology.dim
+    total, count = (fem.Function(cell_space(msh, tdim + 1)) for _ in range(2))
+    if facet_tags is not None and len(facet_tags.indices):
+        which, cells, local = cells_of_facets(msh, facet_tags.indices)
+        at = cells * (tdim + 1) + local
+        np.add.at(total.x.array, at, facet_tags.values[which])
+        np.add.at(count.x.array, at, 1.0)
+    for fn in (total, count):
+        fn.x.scatter_reverse(versions.SCATTER_ADD)
+    n_owned = msh.topology.index_map(tdim).size_local * (tdim + 1)
+    seen = count.x.array[:n_owned] > 0
+    groups = np.full(n_owned, float(UNTAGGED))
+    groups[seen] = np.rint(total.x.array[:n_owned][seen] / count.x.array[:n_owned][seen])
+    if msh.comm.allreduce(bool(np.any(groups[seen] * count.x.array[:n_owned][seen] != total.x.array[:n_owned][seen])),
+                          MPI.LOR):
+        raise InputError("facet tags: a facet carries two different tags")
+    total.x.array[:n_owned] = groups
+    total.x.scatter_forward()
+    return total.x.array.reshape(-1, tdim + 1).astype(np.int32)
+
+
+def tag_from_cell_facets(msh, groups):
+    """MeshTags on the owned exterior facets from ``groups`` (n_owned_cells, tdim + 1): the group of each
+    local facet of the owned cells (a facet whose cell is a ghost here takes it from the cell's owner)."""
+    tdim = msh.topology.dim
+    fn = fem.Function(cell_space(msh, tdim + 1))
+    fn.x.array[:groups.size] = groups.ravel()
+    fn.x.scatter_forward()
+    facets = owned_exterior_facets(msh)
+    _, cells, local = cells_of_facets(msh, facets)  # an exterior facet has one cell
+    return dmesh.meshtags(msh, tdim - 1, facets, fn.x.array.reshape(-1, tdim + 1)[cells, local].astype(np.int32))
+
+
+def cells_of_facets(msh, facets):
+    """Each local cell of each of ``facets``: (which facet, as an index into ``facets``; the cell; the
+    facet's place among the cell's facets), facet after facet."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    msh.topology.create_connectivity(tdim, tdim - 1)
+    f_to_c, c_to_f = msh.topology.connectivity(tdim - 1, tdim), msh.topology.connectivity(tdim, tdim - 1)
+    facets = np.asarray(facets, dtype=np.int64)
+    starts, counts = f_to_c.offsets[facets], np.diff(f_to_c.offsets)[facets]
+    which = np.repeat(np.arange(len(facets)), counts)
+    first_of_which = np.repeat(np.cumsum(counts) - counts, counts)
+    cells = f_to_c.array[np.repeat(starts, counts) + np.arange(len(which)) - first_of_which]
+    local = np.argmax(c_to_f.array.reshape(-1, tdim + 1)[cells] == facets[which, None], axis=1)
+    return which, cells, local
 
 
 def cell_space(msh, dim=1):

@@ -1,28 +1,33 @@
 """Plaza refinement of marked cells, carrying boundary groups, regions and the solution to the new mesh.
 
 Refinement keeps every child cell on the rank of its parent, with a ghost layer of facet neighbours, and
-inside a local (owned or ghost) parent cell. Regions and the displacement are therefore transferred
-*locally*. A child vertex is either a parent vertex or the midpoint of a parent edge, and a P1 function is
-linear along edges, so the displacement at a child vertex is the parent's value there or the mean of the
-edge's two end values: exact (this is nested iteration's initial guess), and found by matching
-coordinates, without any point location. Region ids (only when there is more than one region) are
-evaluated at child cell midpoints. Boundary groups are re-derived geometrically from the level-0 boundary
-simplices (see :mod:`nc_dolfinx.mesh.domain`). All of this holds for triangles and tetrahedra alike.
+inside a local (owned or ghost) parent cell. What lives on the parent is therefore transferred *locally*:
 
-Every supported DOLFINx refines this way (:func:`nc_dolfinx.dolfinx_versions.refine_keeping_ranks`: natively
-on 0.11, with a partitioner of ours on 0.9, and on 0.5.2 with a repair of the doubled ghosts its
-``redistribute=False`` can leave). Then, under MPI, a child that left the ranks unequally busy is
-partitioned anew and the regions and displacement follow their cells and nodes (:mod:`.balance`).
+- the displacement: a child vertex is either a parent vertex or the midpoint of a parent edge, and a P1
+  function is linear along edges, so its value at a child vertex is the parent's value there or the mean
+  of the edge's two end values: exact (this is nested iteration's initial guess), and found by matching
+  coordinates, without any point location;
+- regions and boundary groups: on DOLFINx 0.9 and later, from the parent maps DOLFINx returns (the parent
+  of each child cell, the parent facet of each child facet); on 0.5.2, which returns them for uniform
+  refinement only, the region of a child is the parent's at its midpoint and its facets are re-tagged
+  from the level-0 boundary simplices (see :mod:`nc_dolfinx.mesh.domain`).
+
+All of this holds for triangles and tetrahedra alike. Every supported DOLFINx refines this way
+(:func:`nc_dolfinx.dolfinx_versions.refine_keeping_ranks`: natively on 0.11, with a partitioner of ours on
+0.9, and on 0.5.2 with a repair of the doubled ghosts its ``redistribute=False`` can leave). Then, under
+MPI, a child that left the ranks unequally busy is partitioned anew and what the cells and nodes carry
+follows them (:mod:`.balance`).
 """
 import weakref
 
 import numpy as np
+from mpi4py import MPI
 
 from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
 from .balance import IMBALANCE_LIMIT, imbalance, rebalance
-from .domain import Domain, region_function, tag_exterior_facets
+from .domain import UNTAGGED, Domain, cell_facet_groups, region_function, tag_exterior_facets, tag_from_cell_facets
 
 _MOVES = weakref.WeakKeyDictionary()  # rebalanced child mesh -> the Move that made it (for transfer)
 
@@ -30,28 +35,45 @@ _MOVES = weakref.WeakKeyDictionary()  # rebalanced child mesh -> the Move that m
 def refine(domain, cells=None, balance=True):
     """REFINE: Plaza refinement of the owned ``cells`` (local indices, e.g. from :func:`mark`; ``None``:
     every cell, uniform refinement) and the edges needed for conformity. Returns the new
-    :class:`Domain`, its boundary groups re-tagged from the level-0 boundary and its material regions
-    carried over. Children are made on their parent's rank; with ``balance`` (the default) a child whose
+    :class:`Domain`: each child cell in its parent's region, each child facet in its parent's boundary
+    group. Children are made on their parent's rank; with ``balance`` (the default) a child whose
     busiest rank owns more than ``IMBALANCE_LIMIT`` × the mean of the cells is partitioned anew
     (:mod:`nc_dolfinx.mesh.balance`), and :func:`transfer` to its spaces fetches values across ranks."""
     msh = domain.mesh
     msh.topology.create_entities(1)  # Plaza needs the edges, also for uniform refinement of tetrahedra
     edges = None if cells is None else versions.incident_edges(msh, cells)
-    child = _plaza(domain, edges)
-    if balance and msh.comm.size > 1 and imbalance(child) > IMBALANCE_LIMIT:
-        regions = _child_regions(domain, child)
+    child, parents = _plaza(domain, edges)
+    moving = balance and msh.comm.size > 1 and imbalance(child) > IMBALANCE_LIMIT
+    if not moving:
+        child = versions.with_unique_ghosts(child)  # 0.5.2 only, which has no parent maps to keep in step
+    inherited = _inherited(domain, child, parents)
+    if moving:
         child, move = rebalance(child)
-        regions = move.cell_values(child.comm, regions)
+        inherited = move.cell_values(child.comm, inherited)
         _MOVES[child] = move
+    if parents is None:  # DOLFINx 0.5.2: the groups found by position (see mesh.domain)
+        facet_tags = tag_exterior_facets(child, domain.boundary)
     else:
-        child = versions.with_unique_ghosts(child)
-        regions = _child_regions(domain, child)
-    return Domain(child, tag_exterior_facets(child, domain.boundary), region_function(child, regions),
+        facet_tags = tag_from_cell_facets(child, inherited[:, 1:])
+    return Domain(child, facet_tags, region_function(child, inherited[:, 0]),
                   domain.facet_groups, domain.cell_groups, domain.boundary)
 
 
+def _inherited(domain, child, parents):
+    """What each owned child cell takes from its parent: its region and, given the ``parents`` maps of
+    DOLFINx 0.9 and later, the boundary group of each of its facets (n_owned, 1 + tdim + 1). Without them
+    (0.5.2) the region only, found at the child's midpoint."""
+    if parents is None:
+        return _child_regions(domain, child)[:, None]
+    parent_cell, parent_facet = parents
+    groups = cell_facet_groups(domain.mesh, domain.facet_tags)[parent_cell[:, None], np.maximum(parent_facet, 0)]
+    groups[parent_facet < 0] = UNTAGGED  # a facet inside its parent is inside the body
+    return np.column_stack([domain.region.x.array[parent_cell], groups])  # region: DG0, dof i = cell i
+
+
 def _plaza(domain, edges):
-    """DOLFINx's Plaza refinement of ``edges``, its choices made by the geometry alone.
+    """DOLFINx's Plaza refinement of ``edges``, its choices made by the geometry alone; the child and its
+    parent maps (:func:`~nc_dolfinx.dolfinx_versions.refine_keeping_ranks`).
 
     Plaza bisects the longest edge of each face; between edges of the same length DOLFINx takes, in 3D,
     the one opposite the vertex of the largest *global index*, so the numbering (and with it the number of
@@ -68,15 +90,15 @@ def _plaza(domain, edges):
     exact = msh.geometry.x.copy()
     position = fem.Function(versions.p1_space(msh, (gdim,)))
     position.x.array.reshape(-1, gdim)[_dof_of_node(position.function_space)] = exact[:, :gdim]
-    msh.geometry.x[:, :gdim] += _tie_breaker(exact[:, :gdim], domain.boundary[0])
+    msh.geometry.x[:, :gdim] += _tie_breaker(exact[:, :gdim], *_bounding_box(msh))
     try:
-        child = versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
+        child, parents = versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
         child_position = transfer(position, versions.p1_space(child, (gdim,)))
     finally:
         msh.geometry.x[:] = exact
     moved_back = child_position.x.array.reshape(-1, gdim)
     child.geometry.x[:, :gdim] = moved_back[_dof_of_node(child_position.function_space)]
-    return child
+    return child, parents
 
 
 TIE_BREAKING_MOVE = 1e-9  # of the body's extent: edge lengths change by parts in 1e9, ties (equal to the
@@ -84,14 +106,24 @@ TIE_BREAKING_MOVE = 1e-9  # of the body's extent: edge lengths change by parts i
 _FREQUENCIES = np.sqrt([[2.0, 3.0, 5.0], [7.0, 11.0, 13.0], [17.0, 19.0, 23.0]])  # no two alike: no symmetry
 
 
-def _tie_breaker(x, boundary_vertices):
-    """A small move of each point ``x`` (n, gdim), the same function of its position on every rank."""
-    vertices = boundary_vertices.reshape(-1, x.shape[1])
-    low = vertices.min(axis=0)
-    extent = float(np.max(vertices.max(axis=0) - low))
+def _tie_breaker(x, low, high):
+    """A small move of each point ``x`` (n, gdim), the same function of its position on every rank
+    (``low``, ``high``: the corners of the body's bounding box)."""
+    extent = float(np.max(high - low))
     phase = 2 * np.pi * (x - low) / extent
     dim = x.shape[1]
     return TIE_BREAKING_MOVE * extent * np.sin(phase @ _FREQUENCIES[:dim, :dim].T + np.arange(1, dim + 1))
+
+
+def _bounding_box(msh):
+    """The lowest and highest coordinates of the mesh's nodes (every rank's), (gdim,) each."""
+    x = msh.geometry.x[:, :msh.geometry.dim]
+    low, high = np.full(x.shape[1], np.inf), np.full(x.shape[1], -np.inf)
+    if len(x):
+        low, high = x.min(axis=0), x.max(axis=0)
+    msh.comm.Allreduce(MPI.IN_PLACE, low, op=MPI.MIN)
+    msh.comm.Allreduce(MPI.IN_PLACE, high, op=MPI.MAX)
+    return low, high
 
 
 def _dof_of_node(space):

@@ -1,9 +1,10 @@
 """A :class:`~nc_dolfinx.mesh.domain.Domain` from any DOLFINx mesh of linear simplices and its meshtags.
 
 This is how a user's own mesh enters (:func:`from_dolfinx`), and how a gmsh mesh does once DOLFINx has
-read it (:mod:`nc_dolfinx.mesh.gmsh_io`). The returned ``boundary`` covers the whole level-0 exterior
-boundary (untagged parts with id ``UNTAGGED``), so that refined meshes are re-tagged by the same geometric
-matcher, in 2D and 3D alike.
+read it (:mod:`nc_dolfinx.mesh.gmsh_io`). The owned exterior facets are tagged from the meshtags on any
+local copy of the facet. On DOLFINx 0.5.2 only, the returned ``boundary`` covers the whole level-0 exterior
+boundary (untagged parts with id ``UNTAGGED``) on every rank, so that refined meshes are re-tagged from it
+(:mod:`nc_dolfinx.mesh.domain`); later versions carry the tags through refinement by the parent maps.
 """
 import numpy as np
 from mpi4py import MPI
@@ -12,7 +13,8 @@ from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
 from ..errors import InputError
-from .domain import UNTAGGED, Domain, cell_space, owned_exterior_facets, region_function, tag_exterior_facets
+from .domain import (UNTAGGED, Domain, cell_facet_groups, cell_space, owned_exterior_facets, region_function,
+                     tag_from_cell_facets)
 
 SUPPORTED = "only linear triangles (2D) and tetrahedra (3D) are supported"
 
@@ -22,7 +24,7 @@ def from_dolfinx(mesh, facet_tags, facet_names=None, cell_tags=None, cell_names=
 
     ``facet_names``/``cell_names`` map tag values to group names (default: the tag value as a string);
     a name given for a value no facet carries still makes a (then empty) group. Exterior facets that no
-    tag reaches on their owning rank are ``UNTAGGED``; tag 0 is reserved for them. Without
+    tag reaches (on any rank) are ``UNTAGGED``; tag 0 is reserved for them. Without
     ``cell_tags`` every cell is in region 'body' (id 1); cells that ``cell_tags`` leaves out are in region
     0, the group 'untagged' (unless a group has id 0 already), and keep the default material.
     """
@@ -34,16 +36,17 @@ def from_dolfinx(mesh, facet_tags, facet_names=None, cell_tags=None, cell_names=
     facet_groups = _groups(mesh.comm, facet_tags, facet_names, "facet")
     if UNTAGGED in facet_groups.values():
         raise InputError(f"facet tag {UNTAGGED} is reserved for untagged facets")
-    boundary = gather_boundary(mesh, facet_tags)
+    n_owned = mesh.topology.index_map(tdim).size_local
+    tags = tag_from_cell_facets(mesh, cell_facet_groups(mesh, facet_tags)[:n_owned])
+    boundary = None if versions.REFINEMENT_GIVES_PARENTS else gather_boundary(mesh, tags)
     if cell_tags is None:
-        regions, cell_groups = np.ones(mesh.topology.index_map(tdim).size_local), {"body": 1}
+        regions, cell_groups = np.ones(n_owned), {"body": 1}
     else:
         regions, cell_groups = _owned_cell_values(mesh, cell_tags), _groups(mesh.comm, cell_tags, cell_names, "cell")
         if mesh.comm.allreduce(bool(np.any(np.isnan(regions))), MPI.LOR) and UNTAGGED not in cell_groups.values():
             cell_groups["untagged"] = UNTAGGED
         regions = np.nan_to_num(regions, nan=UNTAGGED)
-    return Domain(mesh, tag_exterior_facets(mesh, boundary), region_function(mesh, regions),
-                  facet_groups, cell_groups, boundary)
+    return Domain(mesh, tags, region_function(mesh, regions), facet_groups, cell_groups, boundary)
 
 
 def _check_linear_simplices(msh, where="mesh"):
@@ -78,7 +81,9 @@ def _owned_cell_values(msh, cell_tags):
 
 
 def gather_boundary(msh, facet_tags):
-    """Every owned exterior facet of every rank as (vertices (n, tdim, gdim), ids (n,)), on all ranks."""
+    """Every owned exterior facet of every rank as (vertices (n, tdim, gdim), ids (n,)), on all ranks
+    (``facet_tags``: on the owned exterior facets). 0.5.2 only: the level-0 boundary that re-tags its
+    refined meshes."""
     tdim, gdim = msh.topology.dim, msh.geometry.dim
     facets = owned_exterior_facets(msh)
     nodes = versions.entities_to_geometry(msh, tdim - 1, facets)
