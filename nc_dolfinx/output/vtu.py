@@ -1,12 +1,18 @@
 """A small parallel VTK XML writer: every field of a level on ONE grid, for ParaView without filters.
 
-DOLFINx 0.5.2 here has no VTX/ADIOS2 writer and its VTKFile refuses tensor-valued DG0 cell data; its
-XDMF files show each function as its own block. Here each rank writes the piece of the mesh it owns
-(``NAME/piece_RANK.vtu``: its owned cells and the vertices they use, ghosts included) and rank 0 the
-``NAME.pvtu`` that lists the pieces; :func:`write_pvd` lists levels as time steps. Point data come from P1
-functions (a vector of 2 components is padded to 3, so ParaView can warp by it), cell data from DG0
-functions (a 3×3 tensor is 9 components). Arrays are base64-encoded inline, each preceded by its own
-base64-encoded UInt64 byte count, as VTK's own writer does for uncompressed binary data.
+Each rank writes the piece of the mesh it owns (``NAME/piece_RANK.vtu``: its owned cells and the vertices
+they use, ghosts included) and rank 0 the ``NAME.pvtu`` that lists the pieces; :func:`write_pvd` lists
+levels (and steps) as time steps. Point data come from P1 functions (a vector of 2 components is padded to
+3, so ParaView can warp by it), cell data from DG0 functions (a 3×3 tensor is 9 components) and integer
+arrays (the regions). Arrays are base64-encoded inline, each preceded by its own base64-encoded UInt64 byte
+count, as VTK's own writer does for uncompressed binary data.
+
+Why not DOLFINx's ``VTKFile``: on 0.5.2 it refuses tensor-valued DG0 cell data (and there is no
+VTX/ADIOS2 writer). On 0.9 and 0.11 it writes P1, DG0 and tensor fields on one grid, but as ASCII text
+with the ghost cells in every piece: measured on a 3D mesh of 2.1e5 dofs on 2 ranks (displacement,
+stress, four indicators; 2026-11-26), ``VTKFile`` took 0.73–1.23 s and wrote 120 MB, this writer 0.16–0.19 s
+and 79 MB. So this writer serves every version, and the files are the same on all three. The XDMF files
+of each level (:mod:`.postprocess`) are DOLFINx's own writer on every version.
 """
 import base64
 import xml.etree.ElementTree as ET
