@@ -258,6 +258,8 @@ CASES = [
     ("snes_divergence", lambda m, t: ["block", *FAST, "-snes_max_it", "1"], "SNES diverged"),
     ("snes_divergence_basic_linesearch",
      lambda m, t: ["block", *FAST, "-snes_max_it", "1", "-snes_linesearch_type", "basic"], "SNES diverged"),
+    ("mumps_ordering_not_built", lambda m, t: ["block", *FAST, "-mat_mumps_icntl_28", "2", "-mat_mumps_icntl_29", "2"],
+     "the MUMPS factorisation failed with INFOG(1) = -38"),  # (Debian's MUMPS has no ParMETIS)
     ("unused_petsc_option", lambda m, t: ["block", *FAST, "-snes_tyep", "foo"],
      "PETSc option -snes_tyep was not used by any solver (misspelt?); --allow-unused-petsc-options accepts it"),
     ("unused_petsc_options_in_file", lambda m, t: ["block", *FAST, "--set", "solver.petsc_options.ksp_typo=1",

@@ -16,8 +16,9 @@ from common import PYTHON, ROOT, child_env
 
 JUMP = '    form += ufl.inner(jump, jump) * (wv("+")[eta_2] + wv("-")[eta_2]) * dS\n'
 # the estimator multiplies the assembled facet terms by h_K afterwards: h_E² / h_K in the integrand gives h_E²
+# (FacetArea restricted: UFL 2026 (DOLFINx 0.11) refuses an unrestricted one on interior facets)
 H_E_SQUARED = ('    msh, h = fields.domain.mesh, ufl.CellDiameter(fields.domain.mesh)\n'
-               '    form += ufl.inner(jump, jump) * ufl.FacetArea(msh) ** 2 * (wv("+")[eta_2] / h("+")'
+               '    form += ufl.inner(jump, jump) * ufl.FacetArea(msh)("+") ** 2 * (wv("+")[eta_2] / h("+")'
                ' + wv("-")[eta_2] / h("-")) * dS\n')
 BREAKS = {
     "interior jumps dropped from η_2": (JUMP, ""),

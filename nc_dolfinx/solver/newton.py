@@ -697,6 +697,8 @@ class NonlinearSolver(Recoveries):
             used.append("continuation")
             if self._retry_continuation(x, stats, target, start, factor):
                 return used
+            if self._factorisation_error():
+                raise InputError(self._factorisation_error())
             raise InputError(f"SNES diverged ({stats.converged_reason}) after {stats.newton_iterations} Newton "
                              f"iterations (fallbacks tried: {', '.join(used)}); try -snes_max_it, "
                              "--load-steps or a smaller c_n")

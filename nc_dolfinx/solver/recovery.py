@@ -47,6 +47,20 @@ class Recoveries:
             set_petsc_options({k: v for k, v in self.options.items() if k not in OWN_DEFAULTS})
             pc.reset()
 
+    def _factorisation_error(self):
+        """What MUMPS said if the last factorisation failed (INFOG(1) < 0), else None: the same on every
+        rank. A failure that the workspace cannot mend (e.g. -38 when ``-mat_mumps_icntl_28 2`` asks for a
+        parallel ordering that Debian's MUMPS is built without) makes every fallback fail the same way, and
+        is then what the user needs to read, not Newton's divergence."""
+        pc = self.snes.getKSP().getPC()
+        if pc.getType() not in ("cholesky", "lu") or pc.getFactorSolverType() != "mumps":
+            return None
+        infog = pc.getFactorMatrix().getMumpsInfog(1)
+        if infog >= 0 or infog in MUMPS_WORKSPACE_ERRORS:
+            return None
+        return (f"the MUMPS factorisation failed with INFOG(1) = {infog} (MUMPS's user guide, §"
+                "'Error diagnostics'); check the -mat_mumps_* options, or use --set solver.preset=iterative")
+
     def _retry_stronger(self, x, stats, target, start):
         """P = J at every Newton step and GMRES instead of CG (robust to a PC that is not SPD, as seen
         with CG + GAMG on a 3D penalty problem)."""
