@@ -42,3 +42,23 @@ def test_the_sensitivity_study_s_breaks_still_apply():
             "print(sorted(text.count(old) for old, _ in sensitivity.BREAKS.values()))")
     out = subprocess.run([PYTHON, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[1, 1]"
+
+
+def test_compare_reports_finds_a_changed_cell(tmp_path):
+    """verification/compare_reports.py: the committed report against itself agrees everywhere; with one
+    number changed by 1e-6 (relative) it names that table's column, and a lost row is a structural error."""
+    committed = (ROOT / "verification" / "report.md").read_text()
+    tool = [PYTHON, str(ROOT / "verification" / "compare_reports.py"), str(ROOT / "verification" / "report.md")]
+    same = subprocess.run(tool + [str(ROOT / "verification" / "report.md")], capture_output=True, text=True)
+    assert same.returncode == 0 and same.stdout.strip().endswith(" 0 differ"), same.stdout
+    row = next(line for line in committed.splitlines() if line.startswith("| manufactured | 0 |"))
+    value = row.split("|")[7].strip()
+    changed = tmp_path / "changed.md"
+    changed.write_text(committed.replace(row, row.replace(value, f"{float(value) * (1 + 1e-6):.10e}")))
+    out = subprocess.run(tool + [str(changed)], capture_output=True, text=True)
+    assert out.returncode == 0 and "1 cell(s) differ | max rel. diff 1.0e-06" in out.stdout, out.stdout
+    assert out.stdout.strip().endswith(" 1 differ"), out.stdout
+    lost = tmp_path / "lost.md"
+    lost.write_text(committed.replace(row + "\n", ""))
+    out = subprocess.run(tool + [str(lost)], capture_output=True, text=True)
+    assert out.returncode == 1 and "rows against" in out.stdout, out.stdout
