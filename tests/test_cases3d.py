@@ -107,6 +107,23 @@ def test_cases_agree_on_1_2_3_ranks(solved, nprocs):
                 assert parallel[key] == pytest.approx(serial[key], rel=1e-8, abs=1e-14), (case, key)
 
 
+@pytest.mark.parametrize("nprocs", [2, 3])
+def test_cases_are_in_equilibrium_and_reactions_agree_on_1_2_3_ranks(solved, nprocs):
+    """applied load + contact force + the supports' reactions = 0 to the solver's tolerance; a symmetry
+    plane pushes along its normal only; the reactions are the same on 1, 2 and 3 ranks."""
+    case, runs = solved
+    for serial, parallel in zip(runs[1], runs[nprocs]):
+        reactions = sorted(key for key in serial if key.startswith("reaction_"))
+        assert reactions and reactions == sorted(key for key in parallel if key.startswith("reaction_"))
+        assert serial["force_balance"] < 1e-8 and parallel["force_balance"] < 1e-8, case
+        scale = np.linalg.norm(serial["applied_load"]) + np.linalg.norm(serial["contact_force"])
+        for key in reactions + ["applied_load"]:
+            assert parallel[key] == pytest.approx(serial[key], rel=1e-8, abs=1e-8 * scale), (case, key)
+        for key, axis in (("reaction_symm_x", 0), ("reaction_symm_y", 1)):
+            if key in serial:
+                assert serial[key][axis] != 0 and [c for i, c in enumerate(serial[key]) if i != axis] == [0, 0]
+
+
 def test_cases_touch_the_foundation(solved):
     """Every case is in contact, and on a flat Γ_C (all but hertz3d) the contact force on the body points
     straight up: frictionless contact on the plane z = const has no horizontal component."""

@@ -39,6 +39,20 @@ def test_zero_compliance_is_linear_elasticity():
     assert stats.newton_iterations == 1  # a linear problem: one Newton step
 
 
+def test_reaction_of_a_clamped_bar_in_tension_is_the_pull():
+    """No contact (a gap of 10), the block [0,2]×[0,1] clamped on the left and pulled on the right by
+    g = (3, 1 − 2y) (resultant (3, 0)), no weight: the clamp's reaction is (−3, 0), whatever the mesh, since
+    the residual sums to the load on the free dofs' complement; the force balance closes."""
+    problem = nc.load_problem(BLOCK, ["contact.gap=10", 'loads.f=["0", "0"]', 'loads.g={right = ["3", "1 - 2*y"]}',
+                                      "mesh.cells=[10, 5]"])
+    solution = nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    q = nc.solution_quantities(solution.u, solution.fields)
+    assert q["contact_resultant"] == 0
+    assert q["applied_load"] == pytest.approx([3.0, 0.0], abs=1e-12)
+    assert q["reaction_left"] == pytest.approx([-3.0, 0.0], abs=1e-9)
+    assert q["force_balance"] < 1e-10
+
+
 @pytest.mark.parametrize("m_n", [1])
 def test_penetration_shrinks_like_one_over_c_n(tmp_path, m_n):
     """Remark 1: m_n = 1, c_n = 1/ε → (u_n)_+ = O(ε) while the contact pressure converges."""

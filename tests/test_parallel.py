@@ -41,6 +41,10 @@ def test_parallel_matches_serial(runs, nprocs):
             if key in s:
                 assert p[key] == pytest.approx(s[key], rel=1e-8, abs=1e-14), (key, s["level"])
         assert p["contact_force"] == pytest.approx(s["contact_force"], rel=1e-8, abs=1e-12)
+        scale = sum(abs(x) for x in s["applied_load"])
+        for key in [k for k in s if k.startswith("reaction_")] + ["applied_load"]:
+            assert p[key] == pytest.approx(s[key], rel=1e-8, abs=1e-10 * scale), (key, s["level"])
+        assert s["force_balance"] < 1e-8 and p["force_balance"] < 1e-8
 
 
 @pytest.mark.parametrize("case,strategy,theta", [("block", "doerfler", 0.5), ("manufactured", "doerfler", 0.3),

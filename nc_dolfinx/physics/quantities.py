@@ -1,4 +1,5 @@
-"""Global quantities of a discrete solution: energy, contact force, and errors against an exact solution."""
+"""Global quantities of a discrete solution: energy, contact force, the reactions of the supports and the
+force balance, and errors against an exact solution."""
 import numpy as np
 import ufl
 from mpi4py import MPI
@@ -25,7 +26,10 @@ def solution_quantities(u, fields):
     ``contact_resultant`` ∫_Γ_C p with p = c_n (u_hn − g_0)_+^{m_n} = −σ_n the pressure of the law (4),
     ``contact_force`` −∫_Γ_C p ν (the vector the foundation exerts on the body), ``contact_length`` (2D)
     or ``contact_area`` (3D) the measure of {p > 0}, and ``max_contact_pressure`` / ``max_penetration``,
-    the largest nodal values of p and (u_hn − g_0)_+ (lumped projections, :func:`contact_projection`)."""
+    the largest nodal values of p and (u_hn − g_0)_+ (lumped projections, :func:`contact_projection`);
+    ``applied_load`` ∫_Ω f + ∫_Γ_N g, ``reaction_<group>`` for every Dirichlet and symmetry group
+    (:func:`support_forces`) and ``force_balance``, the relative remainder of applied load + contact force +
+    reactions = 0 (the solver's tolerance: the body is in equilibrium)."""
     comm = fields.domain.comm
     n = ufl.FacetNormal(fields.domain.mesh)
     p = forms.contact_pressure(u, fields, n)
@@ -36,6 +40,7 @@ def solution_quantities(u, fields):
     max_penetration = comm.allreduce(float(np.max(penetration.x.array[:n_owned], initial=0.0)), MPI.MAX)
     pressure = contact_projection(p, fields, "contact_pressure")
     max_pressure = comm.allreduce(float(np.max(pressure.x.array[:n_owned], initial=0.0)), MPI.MAX)
+    applied, supports = support_forces(u, fields)
     return {
         "max_contact_pressure": max_pressure,
         "elastic_energy": integrate(forms.elastic_energy(u, fields), comm),
@@ -45,7 +50,58 @@ def solution_quantities(u, fields):
         "contact_length" if fields.dim == 2 else "contact_area":
             integrate(ufl.conditional(ufl.gt(p, 0), 1.0, 0.0) * dC, comm),
         "max_penetration": max_penetration,
+        "applied_load": applied,
+        **{f"reaction_{name}": force for name, force in supports.items()},
+        "force_balance": _balance([applied, force, *supports.values()]),
     }
+
+
+def support_forces(u, fields):
+    """The resultant of the given loads, ∫_Ω f + ∫_Γ_N g, and the force each Dirichlet and symmetry group
+    exerts on the body, {group name: vector}, both read from the assembled vectors of (7).
+
+    With r_i = a(u_h, φ_i) + j_n(u_h, φ_i) − L(φ_i), the support's force on the body at a dof i it holds is
+    r_i (the weak form with the reaction added is a + j_n = L + ∫_Γ_D t·v), and a group's force is Σ r_i
+    over its dofs. The load's resultant is Σ_i L(φ_i) = L(1) with L's own quadrature. At the free dofs r_i
+    is Newton's residual, so reactions, contact force and load sum to zero within the solver's tolerance.
+    A dof that two groups hold counts for the first (the Dirichlet groups, then the symmetry planes, in the
+    problem's order); a symmetry plane's force lies along its normal."""
+    V, msh = u.function_space, fields.domain.mesh
+    pieces = forms.normal_compliance_forms(u, fields)
+    bs, n_owned = V.dofmap.index_map_bs, V.dofmap.index_map.size_local
+    vectors = [fem_petsc.assemble_vector(fem.form(form))
+               for form in (pieces.L, ufl.action(pieces.a, u) + pieces.j_n - pieces.L)]
+    load, r = (_owned_blocks(vec, n_owned, bs) for vec in vectors)
+    applied = [float(x) for x in msh.comm.allreduce(load.sum(axis=0), MPI.SUM)]
+    taken = np.zeros_like(r, dtype=bool)
+    names = {i: name for name, i in fields.domain.facet_groups.items()}
+    tags, fdim = fields.domain.facet_tags, msh.topology.dim - 1
+    held = [(i, range(bs)) for i in fields.ids["dirichlet"]] + [(i, [a]) for i, a in fields.symmetry_axes.items()]
+    reactions = {}
+    for group, components in held:
+        blocks = np.asarray(fem.locate_dofs_topological(V, fdim, tags.indices[tags.values == group]))
+        mine = np.zeros_like(taken)
+        mine[blocks[blocks < n_owned][:, None], list(components)] = True
+        mine &= ~taken
+        taken |= mine
+        local = np.where(mine, r, 0.0).sum(axis=0)
+        reactions[names.get(group, str(group))] = [float(x) for x in msh.comm.allreduce(local, MPI.SUM)]
+    for vec in vectors:
+        vec.destroy()
+    return applied, reactions
+
+
+def _owned_blocks(vec, n_owned, bs):
+    """A copy of an assembled vector's owned entries (ghost contributions added in), (n_owned, bs)."""
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return vec.array[:n_owned * bs].reshape(-1, bs).copy()
+
+
+def _balance(forces):
+    """|Σ F| / Σ |F| of force vectors (0 when all vanish): how far they are from equilibrium, relatively."""
+    total = np.sum(forces, axis=0)
+    size = sum(float(np.linalg.norm(f)) for f in forces)
+    return float(np.linalg.norm(total)) / size if size > 0 else 0.0
 
 
 def contact_projection(expr, fields, name):
