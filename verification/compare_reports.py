@@ -36,7 +36,8 @@ def tables(path):
 
 
 def cells(line):
-    return [c.strip() for c in line.strip().strip("|").split("|")]
+    """The cells of a table row (a "\\|" inside a cell, as in |R_ε/R_S − 1|, is text, not a border)."""
+    return [c.strip() for c in re.split(r"(?<!\\)\|", line.strip().strip("|"))]
 
 
 def number(text):

@@ -221,6 +221,27 @@ def _git(*args):
         return ""
 
 
+def _head_commit():
+    """The checked-out commit, short: from git, or where git is not installed (the root file systems CI
+    makes for other releases) from the repository's own files."""
+    commit = _git("rev-parse", "--short", "HEAD")
+    if commit:
+        return commit
+    try:
+        head = (ROOT / ".git" / "HEAD").read_text().strip()
+        if not head.startswith("ref: "):
+            return head[:7]
+        ref = head[5:]
+        if (ROOT / ".git" / ref).is_file():
+            return (ROOT / ".git" / ref).read_text().strip()[:7]
+        for line in (ROOT / ".git" / "packed-refs").read_text().splitlines():
+            if line.endswith(" " + ref):
+                return line.split()[0][:7]
+    except OSError:
+        pass
+    return ""
+
+
 def section_md(sec):
     lines = []
     for caption, headers, rows in sec.tables:
@@ -254,7 +275,7 @@ def write(report, results, out, mode, nprocs, total_time, timings):
     from narrative import compose
     text = compose(report, results, pictures, mode=mode, nprocs=nprocs, total_time=total_time, timings=timings,
                    section_md=section_md, md_table=md_table, plot_errors=plot_errors,
-                   commit=_git("rev-parse", "--short", "HEAD"), dirty=_git("status", "--porcelain", "nc_dolfinx"),
+                   commit=_head_commit(), dirty=_git("status", "--porcelain", "nc_dolfinx"),
                    when=datetime.datetime.now().strftime("%Y-%m-%d %H:%M"), machine=platform.platform())
     fd, tmp = tempfile.mkstemp(prefix=".report-", suffix=".md", dir=out)
     with os.fdopen(fd, "w") as fh:
