@@ -40,7 +40,7 @@ COLUMNS = {
     "contact_length": "measure of {p > 0} on Γ_C (2D; contact_area in 3D)",
     "max_penetration": "max of the nodal penetration (u_hn − g_0)_+ >= 0 on Γ_C",
     "applied_load_x": "x component of the resultant of the given loads, ∫_Ω f + ∫_Γ_N g (_y, _z alike)",
-    "reaction_<group>_x": "x component of the force the Dirichlet or symmetry group <group> exerts on the body "
+    "reaction_GROUP_x": "x component of the force the Dirichlet or symmetry group GROUP exerts on the body "
                           "(_y, _z alike): Σ of the residual of (7) at the dofs it constrains (a dof on two "
                           "groups counts for the first; a symmetry plane's force lies along its normal)",
     "force_balance": "|applied_load + contact_force + Σ reactions| / (|applied_load| + |contact_force| + "
@@ -75,7 +75,7 @@ FIELDS = {
 def describe(name):
     """The meaning of a column (None if undocumented: tests/test_output.py fails then)."""
     if name.startswith("reaction_") and name[-2:] in ("_x", "_y", "_z"):
-        return COLUMNS["reaction_<group>_x"].replace("<group>", repr(name[len("reaction_"):-2]), 1)
+        return COLUMNS["reaction_GROUP_x"].replace("GROUP", repr(name[len("reaction_"):-2]), 1)
     if name.startswith("applied_load_"):
         return COLUMNS["applied_load_x"]
     return COLUMNS.get(ALIASES.get(name, name))

@@ -27,7 +27,7 @@ def solution_quantities(u, fields):
     ``contact_force`` −∫_Γ_C p ν (the vector the foundation exerts on the body), ``contact_length`` (2D)
     or ``contact_area`` (3D) the measure of {p > 0}, and ``max_contact_pressure`` / ``max_penetration``,
     the largest nodal values of p and (u_hn − g_0)_+ (lumped projections, :func:`contact_projection`);
-    ``applied_load`` ∫_Ω f + ∫_Γ_N g, ``reaction_<group>`` for every Dirichlet and symmetry group
+    ``applied_load`` ∫_Ω f + ∫_Γ_N g, ``reaction_GROUP`` for every Dirichlet and symmetry group
     (:func:`support_forces`) and ``force_balance``, the relative remainder of applied load + contact force +
     reactions = 0 (the solver's tolerance: the body is in equilibrium)."""
     comm = fields.domain.comm
