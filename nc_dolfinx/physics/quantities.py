@@ -69,9 +69,9 @@ def support_forces(u, fields):
     V, msh = u.function_space, fields.domain.mesh
     pieces = forms.normal_compliance_forms(u, fields)
     bs, n_owned = V.dofmap.index_map_bs, V.dofmap.index_map.size_local
-    vectors = [fem_petsc.assemble_vector(fem.form(form))
-               for form in (pieces.L, ufl.action(pieces.a, u) + pieces.j_n - pieces.L)]
-    load, r = (_owned_blocks(vec, n_owned, bs) for vec in vectors)
+    vectors = [fem_petsc.assemble_vector(fem.form(form)) for form in (pieces.L, ufl.action(pieces.a, u) + pieces.j_n)]
+    load, internal = (_owned_blocks(vec, n_owned, bs) for vec in vectors)
+    r = internal - load  # (L assembled once, for both)
     applied = [float(x) for x in msh.comm.allreduce(load.sum(axis=0), MPI.SUM)]
     taken = np.zeros_like(r, dtype=bool)
     names = {i: name for name, i in fields.domain.facet_groups.items()}
