@@ -195,9 +195,6 @@ def create_serial_mesh(comm, cells, x):
 
 # --- refinement --------------------------------------------------------------------------------
 
-REFINEMENT_GIVES_PARENTS = not V05  # the parent maps of a refinement of marked edges (0.5.2: uniform only)
-
-
 def refine_keeping_ranks(msh, edges=None, unique_ghosts=True):
     """Plaza refinement of ``edges`` (local indices; ``None``: every edge) whose children stay on their
     parent's rank, with a ghost layer of facet neighbours. Returns the child and its parent maps
@@ -208,7 +205,7 @@ def refine_keeping_ranks(msh, edges=None, unique_ghosts=True):
       moves them; so a partitioner of our own keeps every cell on its rank and ghosts it on the ranks of
       its facet neighbours, from DOLFINx's dual graph of the child cells (what 0.11 does in C++).
     - 0.5.2 only: ``redistribute=False``, and no parent maps (its ``plaza_refine_data`` gives them for
-      uniform refinement only). Its partitioner sends a cell once per off-rank *neighbour*: a cell
+      uniform refinement only; :mod:`nc_dolfinx.mesh.refinement` finds what they would give by position). Its partitioner sends a cell once per off-rank *neighbour*: a cell
       with two facet-neighbours on the same rank arrives there twice, and the facet between the duplicate
       ghosts and their neighbour then has three cells and drops out of interior-facet (``dS``) integrals
       (seen on 3 ranks: one interior edge missing from the jumps of η_2). When that happens (two ghost

@@ -18,6 +18,7 @@ from conftest import PYTHON, ROOT, mpirun_prefix, run
 from nc_dolfinx import dolfinx_versions as versions
 from nc_dolfinx.mesh import builtin, domain as mesh_domain, gmsh_io, tagged
 from nc_dolfinx.errors import InputError
+from mpi.boundary_oracle import gather_boundary
 
 COMM = MPI.COMM_WORLD
 SUPPORTED = "only linear triangles (2D) and tetrahedra (3D) are supported"
@@ -144,7 +145,7 @@ def test_from_dolfinx_2d_names_and_defaults():
                                  {8: "unused"})
     assert domain.facet_groups == {"4": 4, "unused": 8} and domain.cell_groups == {"body": 1}
     assert np.bincount(domain.facet_tags.values).tolist() == [2 * 2 + 4, 0, 0, 0, 4]
-    vertices, ids = tagged.gather_boundary(domain.mesh, domain.facet_tags)
+    vertices, ids = gather_boundary(domain.mesh, domain.facet_tags)
     assert vertices.shape == (12, 2, 2) and sorted(ids) == [0] * 8 + [4] * 4
 
 
@@ -260,7 +261,7 @@ def test_from_gmsh_3d_file(tmp_path):
     domain = gmsh_io.from_gmsh(COMM, path)
     assert domain.tdim == 3 and domain.num_cells() == num_cells
     assert domain.facet_groups == {"left": 3, "bottom": 4} and domain.cell_groups == {"soft": 1, "hard": 2}
-    vertices, ids = tagged.gather_boundary(domain.mesh, domain.facet_tags)
+    vertices, ids = gather_boundary(domain.mesh, domain.facet_tags)
     midpoints = vertices.mean(axis=1)
     assert vertices.shape[1:] == (3, 3) and len(ids) == len(domain.facet_tags.indices)
     np.testing.assert_array_equal(ids == 3, np.isclose(midpoints[:, 0], 0))

@@ -1,8 +1,7 @@
 """The built-in domains: a rectangle (2D) and a box (3D) with their sides as boundary groups.
 
 The sides are tagged geometrically: a facet is in the group of the side (a box face as simplices) that
-holds its centroid. On DOLFINx 0.5.2 the returned ``boundary`` is these simplices, which re-tag refined
-meshes as they do a gmsh or user mesh there (:mod:`nc_dolfinx.mesh.domain`).
+holds its centroid.
 """
 import itertools
 
@@ -50,10 +49,9 @@ def _axis_aligned_input(kind, corners, cells, gdim):
 
 def _axis_aligned_domain(msh, low, high, sides):
     msh = versions.with_equispaced_coordinates(msh)
-    boundary = _box_faces(low, high)
     n_owned = msh.topology.index_map(msh.topology.dim).size_local
-    return Domain(msh, tag_exterior_facets(msh, boundary), region_function(msh, np.ones(n_owned)),
-                  dict(sides), {"body": 1}, None if versions.REFINEMENT_GIVES_PARENTS else boundary)
+    return Domain(msh, tag_exterior_facets(msh, _box_faces(low, high)), region_function(msh, np.ones(n_owned)),
+                  dict(sides), {"body": 1})
 
 
 def _box_faces(low, high):

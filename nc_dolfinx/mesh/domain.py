@@ -2,19 +2,17 @@
 
 A :class:`Domain` is a DOLFINx mesh plus
 - ``facet_tags``: every owned exterior facet tagged with its boundary group id (``UNTAGGED`` = 0 when in none);
-- ``region``: a DG0 function holding each cell's region (material) id;
-- ``boundary``: the level-0 boundary simplices (segments in 2D, triangles in 3D) with their group ids,
-  replicated on every rank, where refinement needs them (DOLFINx 0.5.2); ``None`` otherwise.
+- ``region``: a DG0 function holding each cell's region (material) id.
 
-After a refinement, a facet keeps its parent's group. DOLFINx 0.9 and later tell the parent of each child
-cell and the parent facet of each child facet (:func:`cell_facet_groups` gives the parent's groups cell by
-cell, :func:`tag_from_cell_facets` tags the child from them): exact and local. DOLFINx 0.5.2 gives these maps
-only for uniform refinement, and its ``transfer_facet_meshtag`` needs ``GhostMode.none``, which would break
-interior-facet integrals on partition boundaries; there (0.5.2 only) facets are tagged *geometrically*: a
-facet belongs to the group of the level-0 boundary simplex that contains its centroid, since Plaza
-refinement only bisects edges and every descendant of a boundary facet lies inside a level-0 one.
+After a refinement, a facet keeps its parent's group: from the parent of each child cell and the parent
+facet of each child facet (:func:`cell_facet_groups` gives the parent's groups cell by cell,
+:func:`tag_from_cell_facets` tags the child from them), exact and local. DOLFINx's own
+``transfer_meshtag`` is not used: it refuses ghosted meshes (0.9, 0.11), and 0.5.2's needs
+``GhostMode.none``, which would break interior-facet integrals on partition boundaries.
+The built-in rectangle and box are tagged geometrically (:func:`tag_exterior_facets`): a facet belongs
+to the side (a few simplices) that holds its centroid.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from mpi4py import MPI
@@ -37,9 +35,7 @@ class Domain:
 
     ``mesh``: the DOLFINx mesh (P1 triangles or tetrahedra, ``GhostMode.shared_facet``);
     ``facet_tags``: the owned exterior facets tagged with their group id (``UNTAGGED`` = 0 in none);
-    ``region``: a DG0 function of the cells' region ids; ``facet_groups`` / ``cell_groups``: name → id;
-    ``boundary``: the level-0 boundary simplices and their ids, which re-tag every refined mesh on DOLFINx
-    0.5.2 (``None`` where refinement gives parent maps, see the module's docstring).
+    ``region``: a DG0 function of the cells' region ids; ``facet_groups`` / ``cell_groups``: name → id.
     Made by :func:`rectangle`, :func:`box`, :func:`from_gmsh`, :func:`from_gmsh_model`,
     :func:`from_dolfinx` or :func:`build_domain`; :func:`refine` returns the next one.
     """
@@ -48,7 +44,6 @@ class Domain:
     region: fem.Function
     facet_groups: dict  # name -> id
     cell_groups: dict  # name -> id
-    boundary: tuple = field(repr=False)  # (vertices (n, tdim, gdim) float, group ids (n,) int32) or None
 
     @property
     def comm(self):
@@ -98,7 +93,7 @@ def match_simplices(points, boundary, tol):
     """Group id of a simplex within ``tol`` of each point, ``UNTAGGED`` where none is.
 
     The simplices are tried nearest centroid first, and a point takes the first within ``tol``: a facet
-    centroid lies inside its level-0 simplex (distance ~1e-16) and at least a third of the facet's smallest
+    centroid lies inside its simplex (distance ~1e-16) and at least a third of the facet's smallest
     height away from any other, so the choice is unambiguous, and most points stop at the first candidate."""
     vertices, ids = boundary
     result = np.full(len(points), UNTAGGED, dtype=np.int32)
@@ -143,14 +138,14 @@ def owned_exterior_facets(msh):
 
 def extent(boundary):
     """Largest extent along a coordinate axis of the body whose whole ``boundary`` (vertices (n, tdim,
-    gdim), ids) is given: that of the mesh, found without a pass over its vertices."""
+    gdim), ids) is given."""
     vertices = boundary[0].reshape(-1, boundary[0].shape[-1])
     return float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
 
 
 def tag_exterior_facets(msh, boundary):
     """MeshTags on the owned exterior facets, valued by the group of the boundary simplex they lie in
-    (``boundary``: the whole level-0 boundary)."""
+    (``boundary``: the whole boundary as simplices and their group ids, e.g. a box's sides)."""
     facets = owned_exterior_facets(msh)
     centroids = dmesh.compute_midpoints(msh, msh.topology.dim - 1, facets)[:, :msh.geometry.dim]
     ids = match_simplices(centroids, boundary, 1e-9 * extent(boundary))

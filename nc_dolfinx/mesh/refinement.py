@@ -7,10 +7,12 @@ inside a local (owned or ghost) parent cell. What lives on the parent is therefo
   function is linear along edges, so its value at a child vertex is the parent's value there or the mean
   of the edge's two end values: exact (this is nested iteration's initial guess), and found by matching
   coordinates, without any point location;
-- regions and boundary groups: on DOLFINx 0.9 and later, from the parent maps DOLFINx returns (the parent
+- regions and boundary groups: on DOLFINx 0.9 and later from the parent maps DOLFINx returns (the parent
   of each child cell, the parent facet of each child facet); on 0.5.2, which returns them for uniform
-  refinement only, the region of a child is the parent's at its midpoint and its facets are re-tagged
-  from the level-0 boundary simplices (see :mod:`nc_dolfinx.mesh.domain`).
+  refinement only, by position: a child's region is its parent's at its midpoint, and a child's boundary
+  facet takes the group of the parent's boundary facet that holds its centroid, among the boundary facets
+  of the local parent cells (a child facet lies in a facet of its parent, and an owned child's parent is
+  local). Both are local: nothing of the level-0 mesh is kept.
 
 All of this holds for triangles and tetrahedra alike. Every supported DOLFINx refines this way
 (:func:`nc_dolfinx.dolfinx_versions.refine_keeping_ranks`: natively on 0.11, with a partitioner of ours on
@@ -27,7 +29,7 @@ from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
 from .balance import IMBALANCE_LIMIT, imbalance, rebalance
-from .domain import UNTAGGED, Domain, cell_facet_groups, region_function, tag_exterior_facets, tag_from_cell_facets
+from .domain import UNTAGGED, Domain, cell_facet_groups, match_simplices, region_function, tag_from_cell_facets
 
 _MOVES = weakref.WeakKeyDictionary()  # rebalanced child mesh -> the Move that made it (for transfer)
 
@@ -45,30 +47,70 @@ def refine(domain, cells=None, balance=True):
     child, parents = _plaza(domain, edges)
     moving = balance and msh.comm.size > 1 and imbalance(child) > IMBALANCE_LIMIT
     if not moving:
-        child = versions.with_unique_ghosts(child)  # 0.5.2 only, which has no parent maps to keep in step
-    inherited = _inherited(domain, child, parents)
+        child = versions.with_unique_ghosts(child)  # 0.5.2 only, whose parent maps come after this
+    inherited = _inherited(domain, parents) if parents is not None else _inherited_by_position(domain, child)
     if moving:
         child, move = rebalance(child)
         inherited = move.cell_values(child.comm, inherited)
         _MOVES[child] = move
-    if parents is None:  # DOLFINx 0.5.2: the groups found by position (see mesh.domain)
-        facet_tags = tag_exterior_facets(child, domain.boundary)
-    else:
-        facet_tags = tag_from_cell_facets(child, inherited[:, 1:])
-    return Domain(child, facet_tags, region_function(child, inherited[:, 0]),
-                  domain.facet_groups, domain.cell_groups, domain.boundary)
+    return Domain(child, tag_from_cell_facets(child, inherited[:, 1:]), region_function(child, inherited[:, 0]),
+                  domain.facet_groups, domain.cell_groups)
 
 
-def _inherited(domain, child, parents):
-    """What each owned child cell takes from its parent: its region and, given the ``parents`` maps of
-    DOLFINx 0.9 and later, the boundary group of each of its facets (n_owned, 1 + tdim + 1). Without them
-    (0.5.2) the region only, found at the child's midpoint."""
-    if parents is None:
-        return _child_regions(domain, child)[:, None]
+def _inherited(domain, parents):
+    """What each owned child cell takes from its parent (``parents``: the parent maps, the parent of each
+    owned child cell and the parent facet of each of its facets): its region and the boundary group of each
+    of its facets, (n_owned, 1 + tdim + 1)."""
     parent_cell, parent_facet = parents
     groups = cell_facet_groups(domain.mesh, domain.facet_tags)[parent_cell[:, None], np.maximum(parent_facet, 0)]
     groups[parent_facet < 0] = UNTAGGED  # a facet inside its parent is inside the body
     return np.column_stack([domain.region.x.array[parent_cell], groups])  # region: DG0, dof i = cell i
+
+
+def _inherited_by_position(domain, child):
+    """0.5.2 only (no parent maps): what :func:`_inherited` gives, found by position. The region of an owned
+    child cell is its parent's at the child's midpoint; a facet of it on the boundary (a facet of one local
+    cell) lies in a boundary facet of its parent, whose group it takes (:func:`match_simplices` among the
+    tagged boundary facets of the local parent cells, any rank's tag, :func:`cell_facet_groups`)."""
+    msh, tdim = domain.mesh, domain.tdim
+    n_owned = child.topology.index_map(tdim).size_local
+    parent_groups = cell_facet_groups(msh, domain.facet_tags)
+    cells, local = np.nonzero(parent_groups != UNTAGGED)
+    facets = _cell_facets(msh)[cells, local]
+    nodes = versions.entities_to_geometry(msh, tdim - 1, facets)
+    simplices = msh.geometry.x[nodes.reshape(-1)][:, :tdim].reshape(len(facets), tdim, tdim)
+    child_facets = _cell_facets(child)[:n_owned]
+    on_boundary = np.diff(child.topology.connectivity(tdim - 1, tdim).offsets)[child_facets] == 1
+    centroids = dmesh.compute_midpoints(child, tdim - 1, child_facets[on_boundary])[:, :tdim]
+    groups = np.full(child_facets.shape, UNTAGGED, dtype=np.int32)
+    groups[on_boundary] = match_simplices(centroids, (simplices, parent_groups[cells, local]),
+                                          1e-9 * _local_extent(msh))
+    return np.column_stack([_child_regions(domain, child), groups])
+
+
+def _cell_facets(msh):
+    """The local facets of every local cell, (n_cells, tdim + 1); the facet–cell links built too."""
+    tdim = msh.topology.dim
+    msh.topology.create_entities(tdim - 1)
+    msh.topology.create_connectivity(tdim, tdim - 1)
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    return msh.topology.connectivity(tdim, tdim - 1).array.reshape(-1, tdim + 1)
+
+
+def _local_extent(msh):
+    """The largest extent along an axis of this rank's part of the mesh (1 where it has no nodes)."""
+    x = msh.geometry.x[:, :msh.geometry.dim]
+    return float(np.ptp(x, axis=0).max()) if len(x) else 1.0
+
+
+def _child_regions(domain, child):
+    """0.5.2 only: the region id of every owned child cell: its parent's (found at the child's midpoint)."""
+    tdim = child.topology.dim
+    n_owned = child.topology.index_map(tdim).size_local
+    if len(domain.cell_groups) == 1:  # one region: nothing to locate
+        return np.full(n_owned, next(iter(domain.cell_groups.values())))
+    midpoints = dmesh.compute_midpoints(child, tdim, np.arange(n_owned, dtype=np.int32))
+    return np.rint(evaluate(domain.region, midpoints)[:, 0])
 
 
 def _plaza(domain, edges):
@@ -133,16 +175,6 @@ def _dof_of_node(space):
     dof_of_node = np.empty(space.mesh.geometry.x.shape[0], dtype=np.int64)
     dof_of_node[nodes.ravel()] = versions.cell_dofs(space.dofmap)[:len(nodes)].ravel()
     return dof_of_node
-
-
-def _child_regions(domain, child):
-    """The region id of every owned child cell: its parent's (found at the child's midpoint)."""
-    tdim = child.topology.dim
-    n_owned = child.topology.index_map(tdim).size_local
-    if len(domain.cell_groups) == 1:  # one region: nothing to locate
-        return np.full(n_owned, next(iter(domain.cell_groups.values())))
-    midpoints = dmesh.compute_midpoints(child, tdim, np.arange(n_owned, dtype=np.int32))
-    return np.rint(evaluate(domain.region, midpoints)[:, 0])
 
 
 def evaluate(function, points):

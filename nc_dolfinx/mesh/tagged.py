@@ -2,9 +2,7 @@
 
 This is how a user's own mesh enters (:func:`from_dolfinx`), and how a gmsh mesh does once DOLFINx has
 read it (:mod:`nc_dolfinx.mesh.gmsh_io`). The owned exterior facets are tagged from the meshtags on any
-local copy of the facet. On DOLFINx 0.5.2 only, the returned ``boundary`` covers the whole level-0 exterior
-boundary (untagged parts with id ``UNTAGGED``) on every rank, so that refined meshes are re-tagged from it
-(:mod:`nc_dolfinx.mesh.domain`); later versions carry the tags through refinement by the parent maps.
+local copy of the facet; refinement carries the tags on by the parent maps (:mod:`nc_dolfinx.mesh.domain`).
 """
 import numpy as np
 from mpi4py import MPI
@@ -13,8 +11,7 @@ from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
 from ..errors import InputError
-from .domain import (UNTAGGED, Domain, cell_facet_groups, cell_space, owned_exterior_facets, region_function,
-                     tag_from_cell_facets)
+from .domain import UNTAGGED, Domain, cell_facet_groups, cell_space, region_function, tag_from_cell_facets
 
 SUPPORTED = "only linear triangles (2D) and tetrahedra (3D) are supported"
 
@@ -38,7 +35,6 @@ def from_dolfinx(mesh, facet_tags, facet_names=None, cell_tags=None, cell_names=
         raise InputError(f"facet tag {UNTAGGED} is reserved for untagged facets")
     n_owned = mesh.topology.index_map(tdim).size_local
     tags = tag_from_cell_facets(mesh, cell_facet_groups(mesh, facet_tags)[:n_owned])
-    boundary = None if versions.REFINEMENT_GIVES_PARENTS else gather_boundary(mesh, tags)
     if cell_tags is None:
         regions, cell_groups = np.ones(n_owned), {"body": 1}
     else:
@@ -46,7 +42,7 @@ def from_dolfinx(mesh, facet_tags, facet_names=None, cell_tags=None, cell_names=
         if mesh.comm.allreduce(bool(np.any(np.isnan(regions))), MPI.LOR) and UNTAGGED not in cell_groups.values():
             cell_groups["untagged"] = UNTAGGED
         regions = np.nan_to_num(regions, nan=UNTAGGED)
-    return Domain(mesh, tags, region_function(mesh, regions), facet_groups, cell_groups, boundary)
+    return Domain(mesh, tags, region_function(mesh, regions), facet_groups, cell_groups)
 
 
 def _check_linear_simplices(msh, where="mesh"):
@@ -79,20 +75,3 @@ def _owned_cell_values(msh, cell_tags):
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(count.x.array[:n_owned] > 0, total.x.array[:n_owned] / count.x.array[:n_owned], np.nan)
 
-
-def gather_boundary(msh, facet_tags):
-    """Every owned exterior facet of every rank as (vertices (n, tdim, gdim), ids (n,)), on all ranks
-    (``facet_tags``: on the owned exterior facets). 0.5.2 only: the level-0 boundary that re-tags its
-    refined meshes."""
-    tdim, gdim = msh.topology.dim, msh.geometry.dim
-    facets = owned_exterior_facets(msh)
-    nodes = versions.entities_to_geometry(msh, tdim - 1, facets)
-    vertices = msh.geometry.x[nodes.reshape(-1)][:, :gdim].reshape(len(facets), tdim, gdim)
-    ids = np.full(len(facets), UNTAGGED, dtype=np.int32)
-    if facet_tags is not None and len(facet_tags.indices):
-        position = np.minimum(np.searchsorted(facet_tags.indices, facets), len(facet_tags.indices) - 1)
-        tagged = facet_tags.indices[position] == facets
-        ids[tagged] = facet_tags.values[position[tagged]]
-    gathered = msh.comm.allgather((vertices, ids))
-    return (np.concatenate([v for v, _ in gathered]).reshape(-1, tdim, gdim),
-            np.concatenate([i for _, i in gathered]).astype(np.int32))

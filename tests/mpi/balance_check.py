@@ -31,8 +31,7 @@ def two_regions(domain):
     n = domain.mesh.topology.index_map(tdim).size_local
     x = dmesh.compute_midpoints(domain.mesh, tdim, np.arange(n, dtype=np.int32))
     region = region_function(domain.mesh, np.where(x[:, 0] > 1.0, 2, 1))
-    return nc.Domain(domain.mesh, domain.facet_tags, region, domain.facet_groups, {"soft": 1, "hard": 2},
-                     domain.boundary)
+    return nc.Domain(domain.mesh, domain.facet_tags, region, domain.facet_groups, {"soft": 1, "hard": 2})
 
 
 def gathered(rows):

@@ -23,6 +23,8 @@ from nc_dolfinx.mesh import builtin, domain as mesh_domain, gmsh_io, tagged
 from nc_dolfinx.mesh import refinement
 from nc_dolfinx import dolfinx_versions as versions
 
+from boundary_oracle import gather_boundary
+
 comm = MPI.COMM_WORLD
 
 
@@ -131,7 +133,7 @@ def transfer_error(parent, child):
 
 
 def refine_three_times(domain):
-    level0 = tagged.gather_boundary(domain.mesh, domain.facet_tags)  # the groups' facets, as simplices
+    level0 = gather_boundary(domain.mesh, domain.facet_tags)  # the groups' facets, as simplices
     levels = [measures(domain, level0)]
     gdim = domain.mesh.geometry.dim
     a, b = np.array([1.0, 0, 0])[:gdim], np.array([2.0, 1, 1])[:gdim]
