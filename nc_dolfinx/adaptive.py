@@ -141,7 +141,8 @@ class Level:
     estimate: indicators.Estimate
     row: dict = field(default_factory=dict)
     marked: object = None          # local indices of the owned cells to refine (adaptive), else None
-    stop_reason: str = None        # set on the last level: levels | max_dofs | tol | rtol
+    stop_reason: str = None        # set on the last level (of each step): levels | max_dofs | tol | rtol
+    last_of_state: bool = True     # no finer level of the same load state follows
 
     @property
     def u(self):
@@ -172,6 +173,11 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     (:func:`mark`) and refine (:func:`refine`), each level starting Newton from the previous level's
     solution (nested iteration). Returns a :class:`Result`.
 
+    A problem with a load path ([[steps]], :meth:`Problem.load_path`) solves each increment of each step
+    from the previous state on the current mesh, and refines per ``settings`` after each step's last
+    increment; the mesh only grows along the path (a state moves to a refined mesh exactly, see
+    :func:`refine`). History rows then carry the ``step``, its ``increment`` and the path's ``load_time``.
+
     ``settings``: AdaptSettings (default: the problem's [adapt]); ``domain``: the level-0 mesh (default:
     built from the problem's [mesh] on ``comm``, COMM_WORLD by default); ``on_level(level)`` is called
     after each level (before refinement). Progress goes to the ``nc_dolfinx`` logger (INFO, rank 0).
@@ -181,40 +187,66 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     if domain is None:
         from .physics.binding import build_domain
         domain = build_domain(problem, comm or MPI.COMM_WORLD)
-    times = {"mesh": time.perf_counter() - t0}  # then, on later levels, the refinement that made the mesh
-    history, previous, eta0 = [], None, None
-    for number in range(settings.levels):
-        t = time.perf_counter()
-        solution = solve(problem, domain, previous, petsc_options,
-                         None if number == 0 else 1)
-        times["solve"] = time.perf_counter() - t
-        t = time.perf_counter()
-        est = indicators.estimate(solution.u, solution.fields, **estimator_options(problem))
-        times["estimate"] = time.perf_counter() - t
-        eta0 = est.totals["eta"] if eta0 is None else eta0
-        row = _row(number, domain, solution, est)
-        stop = _stop_reason(settings, number, row["dofs"], est.totals["eta"], eta0)
-        marked = None
-        if stop is None and settings.refine == "adaptive":
+    loop = _Loop(settings, petsc_options, on_level, {"mesh": time.perf_counter() - t0})
+    states = problem.load_path()
+    state = next(states)
+    for following in (*states, None):
+        domain, level = loop.step(state, domain)
+        if following is None:
+            return Result(loop.history, level)
+        state = following
+
+
+class _Loop:
+    """The levels of :func:`adapt`, step after step of a load path: what runs on from one to the next
+    (the history, the last solution, the times of the refinement that made the mesh)."""
+
+    def __init__(self, settings, petsc_options, on_level, times):
+        self.settings, self.petsc_options, self.on_level, self.times = settings, petsc_options, on_level, times
+        self.history, self.previous = [], None
+
+    def step(self, state, domain):
+        """Solve one state; after a step's last increment, go on adaptively per the settings. Returns the
+        mesh the next state starts on and the last :class:`Level` (``stop_reason`` set at a step's end)."""
+        eta0 = None
+        for number_in_step in range(self.settings.levels if state.ends_step else 1):
+            number = len(self.history)
             t = time.perf_counter()
-            marked = marking.mark(est, settings.theta, settings.marking)
-            times["mark"] = time.perf_counter() - t
-            row["marked"] = domain.comm.allreduce(len(marked), MPI.SUM)
-        row.update({f"time_{k}": v for k, v in times.items()})
-        level = Level(number, solution, est, row, marked, stop)
-        if on_level:
+            solution = solve(state.problem, domain, self.previous, self.petsc_options, None if number == 0 else 1)
+            self.times["solve"] = time.perf_counter() - t
             t = time.perf_counter()
-            on_level(level)
-            row["time_output"] = time.perf_counter() - t
-        history.append(row)
-        if domain.comm.rank == 0:
-            log.info(progress_line(row))
-        if stop:
-            return Result(history, level)
-        t = time.perf_counter()
-        domain = refinement.refine(domain, marked)  # marked is None for uniform refinement
-        times = {"refine": time.perf_counter() - t}
-        previous = solution.u
+            est = indicators.estimate(solution.u, solution.fields, **estimator_options(state.problem))
+            self.times["estimate"] = time.perf_counter() - t
+            eta0 = est.totals["eta"] if eta0 is None else eta0
+            row = _row(number, domain, solution, est)
+            if state.step:
+                row.update(step=state.step, increment=state.increment, load_time=state.time)
+            stop = _stop_reason(self.settings, number_in_step, row["dofs"], est.totals["eta"], eta0) \
+                if state.ends_step else None
+            marked = None
+            if stop is None and state.ends_step and self.settings.refine == "adaptive":
+                t = time.perf_counter()
+                marked = marking.mark(est, self.settings.theta, self.settings.marking)
+                self.times["mark"] = time.perf_counter() - t
+                row["marked"] = domain.comm.allreduce(len(marked), MPI.SUM)
+            row.update({f"time_{k}": v for k, v in self.times.items()})
+            level = Level(number, solution, est, row, marked, stop, last_of_state=bool(stop) or not state.ends_step)
+            self._record(level)
+            self.previous, self.times = solution.u, {}
+            if stop or not state.ends_step:
+                return domain, level
+            t = time.perf_counter()
+            domain = refinement.refine(domain, marked)  # marked is None for uniform refinement
+            self.times = {"refine": time.perf_counter() - t}
+
+    def _record(self, level):
+        if self.on_level:
+            t = time.perf_counter()
+            self.on_level(level)
+            level.row["time_output"] = time.perf_counter() - t
+        self.history.append(level.row)
+        if level.solution.domain.comm.rank == 0:
+            log.info(progress_line(level.row))
 
 
 def _row(number, domain, solution, est):
@@ -264,7 +296,8 @@ def estimator_options(problem):
 
 
 def progress_line(row):
-    text = (f"level {row['level']:2d}: {row['dofs']:8d} dofs, {row['newton_iterations']:2d} Newton "
+    where = f"step {row['step']}.{row['increment']} " if "step" in row else ""
+    text = (f"{where}level {row['level']:2d}: {row['dofs']:8d} dofs, {row['newton_iterations']:2d} Newton "
             f"({row['linear_iterations']} linear) its, solve {row['time_solve']:.2f} s, "
             f"eta = {row['eta']:.4e}")
     if "h1_error" in row:

@@ -323,6 +323,20 @@ CASES = [
      "argument --max-dofs: expected a whole number (e.g. 400000 or 4e5), got '12.5'"),
     ("bad_option_choice", lambda m, t: ["block", "--refine", "sideways"], "argument --refine"),
     ("bad_load_steps_option", lambda m, t: ["block", *FAST, "--load-steps", "0"], "solver.load_steps must be >= 1"),
+    # load paths
+    ("step_sets_unknown_parameter", lambda m, t: ["block", *FAST, "--set", "parameters.p=1",
+                                                  "--set", "steps=[{set = {q = 2}}]"],
+     "steps[1].set.q: no such parameter in [parameters] (known: p)"),
+    ("steps_not_tables", lambda m, t: ["block", *FAST, "--set", "steps=[1, 2]"],
+     "steps must be an array of tables ([[steps]] in TOML)"),
+    ("step_without_set", lambda m, t: ["block", *FAST, "--set", "steps=[{increments = 2}]"],
+     "steps[1].set must be a table naming at least one parameter"),
+    ("step_zero_increments", lambda m, t: ["block", *FAST, "--set", "parameters.p=1",
+                                           "--set", "steps=[{set = {p = 2}, increments = 0}]"],
+     "steps[1].increments must be >= 1"),
+    ("step_reaches_bad_material", lambda m, t: ["block", *FAST, "--set", "parameters.E0=1000",
+                                                "--set", 'material.E="E0"', "--set", "steps=[{set = {E0 = -1}}]"],
+     "steps[1] leads to a bad problem: material.E must be > 0"),
 ]
 
 
@@ -338,7 +352,7 @@ def test_bad_input(msh, tmp_path, make_args, expected):
 MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_3d", "empty_mesh",
              "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value", "unused_petsc_option",
              "quad_mesh", "m_n_above_3_in_3d", "symmetry_not_planar", "hexahedral_mesh", "empty_gamma_c_box",
-             "ksp_type_unknown", "snes_rtol_not_a_number", "mat_solver_type_not_built"]
+             "ksp_type_unknown", "snes_rtol_not_a_number", "mat_solver_type_not_built", "step_reaches_bad_material"]
 
 
 @pytest.mark.parametrize("name", MPI_CASES)

@@ -119,7 +119,10 @@ class CaseRun:
                                        [u, stress, von_mises, pressure, *est.fields.values()])
         if level.stop_reason:
             self.solution_level = level.number
-        self.steps.append((level.number, f"levels/{name}.pvtu"))
+        if "load_time" not in level.row:  # a time step per level, or, on a load path, per state
+            self.steps.append((level.number, f"levels/{name}.pvtu"))
+        elif level.last_of_state:
+            self.steps.append((level.row["load_time"], f"levels/{name}.pvtu"))
 
     def compare_uniform(self, history):
         """Uniform refinement up to the adaptive run's last dofs (history_uniform.*)."""
@@ -138,7 +141,8 @@ class CaseRun:
         from ..output.plots import convergence_plot
         title = self.problem.title.split(":")[0]
         files.on_rank0(self.comm, lambda: self.folder.replace(
-            "convergence.png", lambda path: convergence_plot(path, histories, title)), self.out / "convergence.png")
+            "convergence.png", lambda path: convergence_plot(path, {k: final_state(rows) for k, rows in histories.items()},
+                                                             title)), self.out / "convergence.png")
 
     # --- records -------------------------------------------------------------------------------------
     def write_records(self, status):
@@ -217,6 +221,13 @@ class CaseRun:
         self.folder.clean_up(kept=bool(self.history))
         self.kept = (f"levels 0–{len(self.history) - 1} kept in {self.out} (summary.json: status "
                      f"'{status}')") if self.history else None
+
+
+def final_state(rows):
+    """The levels of a load path's last state (every row when there is no path): the convergence plot's."""
+    if not rows or "load_time" not in rows[-1]:
+        return rows
+    return [row for row in rows if row["load_time"] == rows[-1]["load_time"]]
 
 
 def max_displacement(u):

@@ -15,7 +15,10 @@ SIGN_CONVENTIONS = [
 
 # name (CSV header; the JSON files keep contact_force as a list) -> meaning
 COLUMNS = {
-    "level": "refinement level, 0 = the initial mesh",
+    "level": "the row's number: refinement level, 0 = the initial mesh (on a load path, rows of every step in turn)",
+    "step": "load path only: the step of [[steps]] (1, 2, …) the row solves",
+    "increment": "load path only: the increment of that step (its last: the step's parameters in full)",
+    "load_time": "load path only: step − 1 + increment / increments, the time step of solution.pvd",
     "dofs": "degrees of freedom: dimension × vertices (Dirichlet ones included)",
     "cells": "cells (triangles in 2D, tetrahedra in 3D)",
     "imbalance": "owned cells of the busiest rank over the mean (1 on one rank); a refined mesh above 1.05 is "

@@ -51,8 +51,10 @@ class Problem:
         mesh = values["mesh"]
         if mesh["file"] is not None and source is not None:
             mesh["file"] = str((Path(source).parent / mesh["file"]).resolve())
-        return cls(name=name, values=values, given=given, raw=raw,
-                   source=Path(source) if source else None, overrides=tuple(overrides))
+        problem = cls(name=name, values=values, given=given, raw=raw,
+                      source=Path(source) if source else None, overrides=tuple(overrides))
+        problem._step_ends()  # every state a load path reaches is valid before anything runs
+        return problem
 
     def __getitem__(self, dotted):
         """``problem["contact.c_n"]``: a value by its dotted key."""
@@ -85,6 +87,44 @@ class Problem:
         """The ``[parameters]`` table: named numbers usable in every expression."""
         return self.values["parameters"]
 
+    def at_parameters(self, values):
+        """This problem with the parameters ``values`` ({name: number}) set, their definitions replaced,
+        and without its load path: one state of the path, validated again."""
+        raw = copy.deepcopy(self.raw)
+        raw.pop("steps", None)
+        raw.setdefault("parameters", {}).update(values)
+        return Problem.from_dict(raw, self.name, self.source, self.overrides)
+
+    def load_path(self):
+        """The states of the load path ([[steps]]), one per increment, in order, as :class:`LoadState` objects
+        (a generator; every step's end is validated before the first is given). Each step moves the
+        parameters it sets linearly from where the previous step left them, in its number of increments.
+        Without steps the path is the problem itself."""
+        if not self.values["steps"]:
+            return iter([LoadState(self, 0, 1, 1)])
+        return self._increments(self.values["steps"], self._step_ends())
+
+    def _step_ends(self):
+        """The problem at the end of each step of its load path (each validated)."""
+        ends, so_far = [], {}
+        for number, step in enumerate(self.values["steps"], 1):
+            so_far = {**so_far, **step["set"]}
+            try:
+                ends.append(self.at_parameters(so_far))
+            except InputError as err:
+                raise InputError(f"steps[{number}] leads to a bad problem: {err}") from None
+        return ends
+
+    def _increments(self, steps, ends):
+        start = self.parameters
+        for number, (step, end) in enumerate(zip(steps, ends), 1):
+            n = step["increments"]
+            for i in range(1, n):
+                moved = {name: start[name] + (value - start[name]) * i / n for name, value in step["set"].items()}
+                yield LoadState(end.at_parameters(moved), number, i, n)
+            yield LoadState(end, number, n, n)
+            start = end.parameters
+
     @property
     def dimension(self):
         """2 or 3 when the mesh is built in (rectangle, box); None for a mesh file."""
@@ -97,6 +137,26 @@ class Problem:
         return {"name": self.name, "title": self.title, "source": str(self.source) if self.source else None,
                 "overrides": list(self.overrides), "values": copy.deepcopy(self.values),
                 "given": sorted(self.given)}
+
+
+@dataclass(frozen=True)
+class LoadState:
+    """One solve on a load path (:meth:`Problem.load_path`): the ``problem`` at this state's parameters,
+    its ``step`` (1, 2, …; 0 when the problem has no [[steps]]) and its ``increment`` of ``increments``."""
+    problem: Problem
+    step: int
+    increment: int
+    increments: int
+
+    @property
+    def ends_step(self):
+        """Whether this is the step's last increment (where adaptive refinement happens)."""
+        return self.increment == self.increments
+
+    @property
+    def time(self):
+        """The pseudo-time along the path: step − 1 + increment / increments (the step's number at its end)."""
+        return self.step - 1 + self.increment / self.increments
 
 
 def _check_consistency(values, given):

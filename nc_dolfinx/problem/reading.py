@@ -39,7 +39,7 @@ def apply_overrides(data, overrides):
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise InputError(f"--set expects KEY=VALUE, got '{brief_text(item)}'")
-        if "." not in key.strip() and key.strip() not in ("title", "description"):
+        if "." not in key.strip() and key.strip() not in ("title", "description", "steps"):
             raise InputError(f"--set {brief_text(key.strip())}: give section.key, e.g. contact.m_n=2")
         set_dotted(data, key.strip(), parse_value(value.strip()))
     return data

@@ -74,6 +74,7 @@ MAX_NAME = 200         # characters of a group, region, parameter or option name
 MAX_LEVELS = 1000
 MAX_LOAD_STEPS = 10000
 MAX_QUADRATURE_DEGREE = 30
+MAX_STEPS = 1000
 
 
 KEYS = [
@@ -150,11 +151,19 @@ KEYS = [
     Key("reference.hertz", "choice", "print Hertz's contact size and peak pressure beside the computed ones: "
         "`line` (2D, a cylinder) or `sphere` (3D)", NONE, ("line", "sphere")),
     Key("reference.radius", "number", "radius R of the Hertz body", NONE, check=_positive),
+    # [[steps]]
+    Key("steps.set.*", "number", "a load path: the parameters this step sets (`set = { delta = 0.1 }`: a "
+        "number, or an expression of the parameters as the previous step left them); the other "
+        "parameters keep their values, and those defined by expressions of the ones set follow them",
+        REQUIRED),
+    Key("steps.increments", "integer", "how many solves the step takes from the previous step's state "
+        "(the parameters it sets move linearly); adaptive refinement, per [adapt], after the last one",
+        1, check=_all(_at_least_one, _at_most(MAX_LOAD_STEPS, "increments, each a solve"))),
     Key("reference.model_fraction", "number", "the part of the body that is modelled (0.25 for a quarter "
         "model): the Hertz force is the computed resultant divided by it", 1.0, check=_fraction),
 ]
 SECTIONS = ("title", "description", "parameters", "mesh", "material", "loads", "contact", "exact", "adapt",
-            "solver", "estimator", "reference")
+            "solver", "estimator", "reference", "steps")
 _BY_PATH = {key.path: key for key in KEYS}
 ROLES = ("dirichlet", "neumann", "contact", "symmetry")
 
@@ -365,6 +374,43 @@ def parameters_of(data):
     return values
 
 
+def steps_of(data, parameters, given):
+    """[[steps]]: the load path, a list of {"set": {parameter: float}, "increments": n} (empty: none). A
+    step's values are evaluated with the parameters as the steps before it left them."""
+    steps = data.get("steps", [])
+    if not isinstance(steps, list) or not all(isinstance(step, dict) for step in steps):
+        raise InputError(f"steps must be an array of tables ([[steps]] in TOML), got {brief(steps)}")
+    if len(steps) > MAX_STEPS:
+        raise InputError(f"steps has {len(steps)} steps: at most {MAX_STEPS} (each one or more solves)")
+    out, current = [], dict(parameters)
+    for number, step in enumerate(steps, 1):
+        where = f"steps[{number}]"
+        for name in step:
+            if name not in ("set", "increments"):
+                raise InputError(f"unknown key '{where}.{brief_text(name)}'"
+                                 + _suggest(name, ("set", "increments"), where + ".{}"))
+        table = step.get("set")
+        if not isinstance(table, dict) or not table:
+            raise InputError(f"{where}.set must be a table naming at least one parameter "
+                             f"({{ name = value }}), got {brief(table)}")
+        for name in table:
+            if name not in parameters:
+                raise InputError(f"{where}.set.{brief_text(name)}: no such parameter in [parameters]"
+                                 + _suggest(name, parameters))
+        values = {name: _number(text, f"{where}.set.{name}", current) for name, text in table.items()}
+        current = parameters_of({"parameters": {**data.get("parameters", {}), **_sets_so_far(out), **values}})
+        out.append({"set": values, "increments": _convert(_BY_PATH["steps.increments"], step.get("increments", 1),
+                                                          f"{where}.increments", current)})
+    if steps:
+        given.add("steps")
+    return out
+
+
+def _sets_so_far(steps):
+    """Every parameter set by ``steps``, at the value the last of them gave it."""
+    return {name: value for step in steps for name, value in step["set"].items()}
+
+
 MAX_DEPTH = 8  # tables and arrays within one another: the deepest key, material.regions.NAME.E, is 4
 
 
@@ -396,6 +442,9 @@ def validate(data):
     values, given = {"parameters": dict(parameters)}, {f"parameters.{name}" for name in parameters}
     for section in SECTIONS:
         if section == "parameters":
+            continue
+        if section == "steps":
+            values[section] = steps_of(data, parameters, given)
             continue
         if section in ("title", "description"):
             if section in data:
@@ -476,7 +525,8 @@ def _copy(value):
 def reference_markdown():
     """The key reference as Markdown (for the user guide): one table per section."""
     lines = []
-    groups = [("top level", ("title", "description"))] + [(f"[{s}]", (s,)) for s in SECTIONS[2:]]
+    groups = [("top level", ("title", "description"))] + [(f"[[{s}]]" if s == "steps" else f"[{s}]", (s,))
+                                                         for s in SECTIONS[2:]]
     for heading, sections in groups:
         keys = [k for k in KEYS if k.kind != "table" and k.path.split(".")[0] in sections]
         lines += [f"**{heading}**", "", "| key | type | default | meaning |", "|---|---|---|---|"]
