@@ -102,3 +102,24 @@ def test_path_is_the_same_on_1_2_3_ranks(path_runs, nprocs):
         for key in ("eta", "eta_2", "eta_4", "elastic_energy", "load_time"):
             assert p[key] == pytest.approx(s[key], rel=1e-8), key
         assert p["contact_force"] == pytest.approx(s["contact_force"], rel=1e-8, abs=1e-12)
+
+
+STIFFENING = ["block", "--refine", "none", "--set", "mesh.cells=[8,4]", "--set", "parameters.cn=2000",
+              "--set", 'contact.c_n="cn*(1 + x)"', "--set", "steps=[{set = {cn = 2000}}, {set = {cn = 2e8}}]"]
+
+
+def test_a_failing_step_keeps_the_finished_ones_and_is_named(tmp_path):
+    unlimited = tmp_path / "unlimited"
+    assert run_cli([*STIFFENING, "--out", unlimited]).returncode == 0
+    counts = [row["newton_iterations"] for row in history(unlimited)]
+    assert counts[1] > counts[0], counts  # the stiff step needs more Newton steps than the first
+    out = tmp_path / "out"
+    proc = run_cli([*STIFFENING, "--out", out, "-snes_max_it", str(counts[0]), "-fallbacks", "false"])
+    errors = [line for line in (proc.stdout + proc.stderr).splitlines() if line.startswith("nc_dolfinx: error:")]
+    assert proc.returncode == 1 and len(errors) == 1, proc.stdout + proc.stderr
+    assert "level 1, after step 1 increment 1: SNES diverged" in errors[0]
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["status"], summary["levels"]) == ("failed", 1)
+    assert [(r["step"], r["increment"]) for r in history(out)] == [(1, 1)]
+    pvd = ET.parse(out / "solution.pvd").getroot()
+    assert [d.get("file") for d in pvd.iter("DataSet")] == ["levels/level_00.pvtu"]

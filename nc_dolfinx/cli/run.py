@@ -76,6 +76,8 @@ class CaseRun:
         self.history.append(level.row)
         self.notes = level.fields.notes
         self.stage_name = f"level {level.number + 1}"
+        if "step" in level.row:  # on a load path
+            self.stage_name += f", after step {level.row['step']} increment {level.row['increment']}"
         self.write_records("running")
 
     def first_level(self, level):
@@ -120,9 +122,9 @@ class CaseRun:
         if level.stop_reason:
             self.solution_level = level.number
         if "load_time" not in level.row:  # a time step per level, or, on a load path, per state
-            self.steps.append((level.number, f"levels/{name}.pvtu"))
+            self.steps.append((level.number, level.number, f"levels/{name}.pvtu"))
         elif level.last_of_state:
-            self.steps.append((level.row["load_time"], f"levels/{name}.pvtu"))
+            self.steps.append((level.number, level.row["load_time"], f"levels/{name}.pvtu"))
 
     def compare_uniform(self, history):
         """Uniform refinement up to the adaptive run's last dofs (history_uniform.*)."""
@@ -154,7 +156,7 @@ class CaseRun:
         folder = self.folder
         folder.replace("history.json", files.json_writer(self.history))
         folder.replace("history.csv", files.text_writer(files.csv_text(self.history)))
-        folder.replace("solution.pvd", lambda path: vtu.write_pvd(path, self.steps))
+        folder.replace("solution.pvd", lambda path: vtu.write_pvd(path, [step[1:] for step in self.steps]))
         folder.replace("summary.json", files.json_writer(self.summary(status)))
 
     def summary(self, status):
@@ -210,7 +212,7 @@ class CaseRun:
                 self.reason = f"{self.stage_name}: internal error: {type(err).__name__}: {err}"
         # An interruption may fall between a level's files and its record: drop what is not recorded.
         unrecorded_solution = self.solution_level is None or self.solution_level >= len(self.history)
-        self.steps = self.steps[:len(self.history)]
+        self.steps = [step for step in self.steps if step[0] < len(self.history)]
         try:
             self.folder.remove_stage()
             self.folder.remove_levels(len(self.history), solution=unrecorded_solution)
