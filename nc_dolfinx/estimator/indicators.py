@@ -21,6 +21,13 @@ component as Dirichlet data on it); it is bounded like the σ_t term on Γ_C, an
 Equivalently, mirroring the body across the plane makes F interior, with the jump [σν] = 2σ_t (tangential)
 and 0 (normal): the same term up to the factor 4.
 
+Prescribed displacements (loads.u_D, (2) generalised to u = u_D on Γ_D). No term of η or ζ is taken on Γ_D
+(the Neumann ids exclude it), and none is needed where u_D is linear on each facet of Γ_D: u_h = I_h u_D = u_D
+there, u − u_h vanishes on Γ_D as for u = 0, and the proof of Theorem 6 is unchanged. A u_D that is not
+linear on the facets would add the data oscillation of u_D − I_h u_D on Γ_D, which η does not hold; nor does
+η hold the traction (σ(u_h)ν)_i of a roller's free components i (a symmetry plane's σ_t(u_h) term above is
+that term for a roller in a coordinate plane, which mesh.symmetry expresses).
+
 Every quantity is assembled against DG0 test functions (:func:`~nc_dolfinx.mesh.domain.cell_space`: cell i's
 values at entries i·dim …) over cells, interior facets, Neumann facets and contact/symmetry facets (or
 computed from the vertex coordinates: h_F, and h_K when f = 0), so it is parallel with ghost cells on
