@@ -132,3 +132,12 @@ def test_every_case_holds_every_rigid_motion():
     for case in nc.case_names():
         problem = nc.load_problem(case)
         nc.bind(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+
+
+def test_a_rotation_about_an_off_centre_axis_is_named_by_its_axis():
+    """Points on the line x = 1, y = 0 holding every component leave free exactly the rotation about that
+    line (the Gram matrix's null space, one vector): named by its axis and a point of it."""
+    from nc_dolfinx.physics import rigid
+    line = np.column_stack([np.ones(5), np.zeros(5), np.linspace(-1, 1, 5)])
+    free = rigid.free_rigid_motions([(line, (0, 1, 2))], np.zeros(3), 1.0, MPI.COMM_SELF)
+    assert free == ["rotation about z through (1, 0, 0)"]
