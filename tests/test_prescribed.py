@@ -141,3 +141,15 @@ def test_a_rotation_about_an_off_centre_axis_is_named_by_its_axis():
     line = np.column_stack([np.ones(5), np.zeros(5), np.linspace(-1, 1, 5)])
     free = rigid.free_rigid_motions([(line, (0, 1, 2))], np.zeros(3), 1.0, MPI.COMM_SELF)
     assert free == ["rotation about z through (1, 0, 0)"]
+
+
+def test_load_steps_reach_the_same_contact_solution():
+    """block pressed onto its foundation while its clamped side is also moved (u_D = (0.002, −0.001) on
+    'left'): one load step and four (u_D ramped with f and g) converge to the same solution of (7)."""
+    problem = nc.load_problem("block", ["mesh.cells=[12,6]", 'loads.u_D=["0.002", "-0.001"]'])
+    solutions = [solve(problem.replace({"solver.load_steps": n})) for n in (1, 4)]
+    u1, u4 = (s.u.x.array for s in solutions)
+    assert np.abs(u4 - u1).max() < 1e-8 * np.abs(u1).max()
+    left = solutions[0].u.function_space.tabulate_dof_coordinates()[:, 0] == 0.0
+    assert np.array_equal(u1.reshape(-1, 2)[left], np.tile([0.002, -0.001], (left.sum(), 1)))
+    assert nc.solution_quantities(solutions[0].u, solutions[0].fields)["contact_resultant"] > 0
