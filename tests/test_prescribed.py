@@ -153,3 +153,24 @@ def test_load_steps_reach_the_same_contact_solution():
     left = solutions[0].u.function_space.tabulate_dof_coordinates()[:, 0] == 0.0
     assert np.array_equal(u1.reshape(-1, 2)[left], np.tile([0.002, -0.001], (left.sum(), 1)))
     assert nc.solution_quantities(solutions[0].u, solutions[0].fields)["contact_resultant"] > 0
+
+
+def test_a_roller_in_a_coordinate_plane_is_a_symmetry_plane():
+    """u_D = ["0", "free"] on x = 0 is the symmetry plane x = 0: the same u_h, the same reaction, and the
+    same η (the roller's free traction (σν)_y is the symmetry facet's σ_t; without that term η_2 would
+    differ)."""
+    data = {"mesh": {"rectangle": [[0, 0], [2, 1]], "cells": [8, 4], "dirichlet": ["right"],
+                     "neumann": ["top"], "contact": ["bottom"], "symmetry": ["left"]},
+            "material": {"E": E, "nu": NU}, "loads": {"f": ["0", "-10"], "g": ["0", "-20*x"]},
+            "contact": {"c_n": 100 * E, "m_n": 1.5}}
+    symmetric = nc.Problem.from_dict(data)
+    roller = symmetric.replace({"mesh.symmetry": [], "mesh.dirichlet": ["right", "left"],
+                                "loads.u_D": {"left": ["0", "free"]}})
+    solutions = [solve(p) for p in (symmetric, roller)]
+    u_s, u_r = (s.u.x.array for s in solutions)
+    assert np.abs(u_s - u_r).max() < 1e-10 * np.abs(u_s).max()
+    q_s, q_r = (nc.solution_quantities(s.u, s.fields) for s in solutions)
+    assert q_r["reaction_left"] == pytest.approx(q_s["reaction_left"], rel=1e-8)
+    eta_s, eta_r = (nc.estimate(s.u, s.fields).totals for s in solutions)
+    for key in ("eta_1", "eta_2", "eta_3", "eta_4", "eta"):
+        assert eta_r[key] == pytest.approx(eta_s[key], rel=1e-10), key
