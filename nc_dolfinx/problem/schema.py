@@ -385,7 +385,7 @@ def parameters_of(data):
     if not isinstance(table, dict):
         raise InputError(f"[parameters] must be a table, got {table!r}")
     values = {}
-    reserved = set(expressions.COORDINATES) | {"pi"} | set(expressions.FUNCTIONS)
+    reserved = set(expressions.COORDINATES) | {"pi", FREE} | set(expressions.FUNCTIONS)  # (FREE: loads.u_D)
     for name, text in table.items():
         if name in reserved or not name.isidentifier() or len(name) > MAX_NAME:
             raise InputError(f"parameter name '{brief_text(name)}' is not allowed (reserved or not an identifier)")
