@@ -123,9 +123,10 @@ class Fields:
 
 def bind(problem, domain):
     """The problem's data on ``domain`` as :class:`Fields`: the coefficients of (7) and the measures of
-    Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, the dimension of every
-    vector, m_n in 3D, the reference's dimension, and that every expression is finite where it is used
-    (c_n and g_0 also >= 0 on Γ_C); raises :class:`InputError` for each. Boundary groups of the mesh in no
+    Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, that the supports hold every
+    rigid motion (before any solve: :mod:`.rigid`), the dimension of every vector, m_n in 3D, the
+    reference's dimension, and that every expression is finite where it is used (u_D on its group, c_n and
+    g_0 also >= 0 on Γ_C); raises :class:`InputError` for each. Boundary groups of the mesh in no
     role are traction-free: ``Fields.warnings`` says so."""
     msh, params, values = domain.mesh, problem.parameters, problem.values
     dim = msh.geometry.dim
@@ -259,7 +260,7 @@ def _prescribed_displacements(problem, domain, dirichlet):
     """u_D of (2) per Dirichlet group that ``loads.u_D`` names, as UFL per component (None: free)."""
     msh, params = domain.mesh, problem.parameters
     return {group: [None if text == FREE else to_ufl(text, msh, params) for text in vector]
-            for group, (key, vector) in _u_D_by_group(problem, domain, dirichlet).items()}
+            for group, (_, vector) in _u_D_by_group(problem, domain, dirichlet).items()}
 
 
 def _check_rigid_motions_held(fields):
