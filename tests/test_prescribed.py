@@ -155,17 +155,20 @@ def test_load_steps_reach_the_same_contact_solution():
     assert nc.solution_quantities(solutions[0].u, solutions[0].fields)["contact_resultant"] > 0
 
 
-def test_a_roller_in_a_coordinate_plane_is_a_symmetry_plane():
-    """u_D = ["0", "free"] on x = 0 is the symmetry plane x = 0: the same u_h, the same reaction, and the
-    same η (the roller's free traction (σν)_y is the symmetry facet's σ_t; without that term η_2 would
-    differ)."""
-    data = {"mesh": {"rectangle": [[0, 0], [2, 1]], "cells": [8, 4], "dirichlet": ["right"],
-                     "neumann": ["top"], "contact": ["bottom"], "symmetry": ["left"]},
-            "material": {"E": E, "nu": NU}, "loads": {"f": ["0", "-10"], "g": ["0", "-20*x"]},
-            "contact": {"c_n": 100 * E, "m_n": 1.5}}
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_roller_in_a_coordinate_plane_is_a_symmetry_plane(dim):
+    """u_D = ["0", "free"(, "free")] on x = 0 is the symmetry plane x = 0: the same u_h, the same reaction,
+    and the same η (the roller's free traction is the symmetry facet's σ_t; without that term η_2 would
+    differ: 29.500 against 29.513 in 2D)."""
+    mesh = {"rectangle": [[0, 0], [2, 1]], "cells": [8, 4]} if dim == 2 else \
+        {"box": [[0, 0, 0], [2, 1, 1]], "cells": [4, 2, 2]}
+    mesh.update({"dirichlet": ["right"], "neumann": ["top"], "contact": ["bottom"], "symmetry": ["left"]})
+    down = ["0"] * (dim - 1)
+    data = {"mesh": mesh, "material": {"E": E, "nu": NU}, "loads": {"f": [*down, "-10"], "g": [*down, "-20*x"]},
+            "contact": {"c_n": 100 * E, "m_n": 1.5}, "solver": {"preset": "direct"}}
     symmetric = nc.Problem.from_dict(data)
     roller = symmetric.replace({"mesh.symmetry": [], "mesh.dirichlet": ["right", "left"],
-                                "loads.u_D": {"left": ["0", "free"]}})
+                                "loads.u_D": {"left": ["0", *["free"] * (dim - 1)]}})
     solutions = [solve(p) for p in (symmetric, roller)]
     u_s, u_r = (s.u.x.array for s in solutions)
     assert np.abs(u_s - u_r).max() < 1e-10 * np.abs(u_s).max()
