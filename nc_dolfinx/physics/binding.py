@@ -69,7 +69,8 @@ class Fields:
         groups of ``loads.u_D`` — one condition for a group that holds every component, one on ``V.sub(i)``
         per held component of a roller — and on each symmetry plane the normal component of u is 0. Where
         groups share a vertex the last condition sets its value: clamped groups, then those of u_D (in
-        ``loads.u_D``'s order), then the symmetry planes. The values are P1 interpolants of u_D (:meth:`update_boundary_values`)."""
+        ``loads.u_D``'s order), then the symmetry planes. The values are P1 interpolants of u_D
+        (:meth:`update_boundary_values`)."""
         tags, fdim = self.domain.facet_tags, self.domain.mesh.topology.dim - 1
         self.boundary_values = []
         clamped = tags.indices[np.isin(tags.values, [i for i in self.ids["dirichlet"] if i not in self.u_D])]

@@ -61,7 +61,8 @@ def free_motions(gram):
     if null.shape[1] == 0:
         return null
     k = len(gram)
-    order = list(range(k - (1 if k == 3 else 3), k)) + list(range(k - (1 if k == 3 else 3)))  # rotations first
+    translations = 2 if k == 3 else 3  # the basis holds the translations, then the rotations
+    order = list(range(translations, k)) + list(range(translations))  # rotations first
     rows = _row_echelon(null.T[:, order])
     reduced = np.zeros_like(rows)
     reduced[:, order] = rows
@@ -99,7 +100,8 @@ def describe(vector, centre, scale):
     translation[:dim] = vector[:dim]
     rotation = np.array([0.0, 0.0, vector[2]]) if dim == 2 else vector[3:]
     if not rotation.any():
-        return "translation along (" + ", ".join(f"{c:.3g}" for c in translation[:dim] / np.linalg.norm(translation)) + ")"
+        direction = translation[:dim] / np.linalg.norm(translation)
+        return "translation along (" + ", ".join(f"{c:.3g}" for c in direction) + ")"
     # ω × (ξ − p) + s ω: the rotation about the axis ω through p, p ⊥ ω, and a slide s along it
     omega2 = rotation @ rotation
     p = np.cross(rotation, translation) / omega2
