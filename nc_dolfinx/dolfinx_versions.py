@@ -523,6 +523,18 @@ def solve_linear_problem(a, L, bcs, petsc_options):
     return problem.solve()
 
 
+def set_dirichlet_rows(vector, bcs, scale):
+    """The entries of ``vector`` that ``bcs`` hold set to ``scale`` times the conditions' values (scale 0:
+    zero; the keyword is ``scale`` in 0.5.2, ``alpha`` later: passed by position)."""
+    dolfinx.fem.petsc.set_bc(vector, bcs, None, scale)
+
+
+def lift(vector, bilinear_form, bcs):
+    """vector −= A g on the free rows, A the compiled ``bilinear_form`` and g the values of ``bcs`` (the
+    lifting of non-zero Dirichlet values; ghosts not yet added to their owners)."""
+    dolfinx.fem.petsc.apply_lifting(vector, [bilinear_form], [bcs])
+
+
 # --- forms and the JIT -------------------------------------------------------------------------
 
 FORM_COMPILER = {"scalar_type": "double" if V05 else np.float64}  # what fem.form passes to FFCx by default

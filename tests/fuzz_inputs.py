@@ -61,7 +61,7 @@ SPOOF = "bogus\nnc_dolfinx: error: spoofed second line"  # printed raw, the erro
 # one (not list(HealthCheck)): newer Hypothesis warns about suppressing its deprecated members.
 SUPPRESS = [getattr(HealthCheck, name) for name in ("too_slow", "filter_too_much", "data_too_large",
                                                     "large_base_example") if hasattr(HealthCheck, name)]
-WILDCARD_NAMES = {"parameters": "pfuzz", "material.regions": "soft", "loads.g": "top",
+WILDCARD_NAMES = {"parameters": "pfuzz", "material.regions": "soft", "loads.g": "top", "loads.u_D": "left",
                   "solver.petsc_options": "snes_rtol"}
 
 
@@ -303,6 +303,12 @@ def wrong_values(key, path, dim):
         wrong = ["0", 0, [1], ["0"] * 4, {"a": 1}, [True, False], [[1], [2]], [NAN, 0], ["abc", "0"], ["0"] * other]
     elif kind == "traction":
         wrong = ["abc", 1, [True, "0"], {"nosuch": ["0"] * dim}, {"top": "0"}, True]
+    elif kind == "displacement":  # loads.u_D: the base's only Dirichlet group is 'left'
+        wrong = ["abc", 1, [True, "0"], {"nosuch": ["0"] * dim}, {"top": ["0"] * dim}, {"left": "0"}, True,
+                 ["free"] * dim, {"left": ["fre"] + ["0"] * (dim - 1)}]
+    elif kind == "prescribed":  # loads.u_D.left
+        wrong = ["0", 0, [1], ["0"] * 4, ["free"] * dim, ["fre"] + ["0"] * (dim - 1), [NAN] + ["0"] * (dim - 1),
+                 ["1/(x-x)"] + ["0"] * (dim - 1), ["0"] * other]
     elif kind == "boolean":
         wrong = ["yes", 1, [], "true", 0, {"a": 1}, True]  # True: from_exact without [exact] u
     elif kind == "string":
@@ -443,7 +449,7 @@ def hostile_expressions(draw, coordinates=True, max_terms=30000):
     return draw(st.sampled_from(choices))
 
 
-EXPRESSION_SITES = ["contact.c_n", "contact.gap", "loads.f", "loads.g.top", "exact.u", "material.E",
+EXPRESSION_SITES = ["contact.c_n", "contact.gap", "loads.f", "loads.g.top", "loads.u_D.left", "exact.u", "material.E",
                     "parameters.pfuzz", "--set contact.c_n"]
 
 
@@ -463,7 +469,7 @@ def hostile_expression_inputs(draw):
         return _from(problem, "hostile-expression", f"{label} via --set contact.c_n", expect=expect,
                      words={"contact.c_n", "c_n", "--set"}, args=args)
     path = site
-    if site in ("loads.f", "loads.g.top", "exact.u"):
+    if site in ("loads.f", "loads.g.top", "loads.u_D.left", "exact.u"):
         value = ["0"] * (dim - 1) + [text]
         if site == "loads.g.top":
             problem["loads"]["g"] = {}

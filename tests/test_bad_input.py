@@ -228,6 +228,25 @@ CASES = [
                                           'mesh.symmetry=["symm_x","free"]', "--set", "mesh.neumann=[]"],
      "symmetry group 'free' does not lie in a plane"),
     ("empty_gamma_c_box", lambda m, t: ["box", *FAST3D, "--set", "mesh.contact=[]"], "Γ_C (contact) is empty"),
+    # prescribed displacements (loads.u_D)
+    ("u_D_wrong_length", lambda m, t: ["block", *FAST, "--set", 'loads.u_D=["0"]'],
+     "loads.u_D must be a list of 2 (2D) or 3 (3D) expressions"),
+    ("u_D_3_components_on_2d", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={left=["0","0","0"]}'],
+     "loads.u_D.left has 3 components but the mesh is 2D"),
+    ("u_D_on_a_neumann_group", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={top=["0","0"]}'],
+     "loads.u_D has an entry for 'top', which is not a dirichlet group (it is a neumann group"),
+    ("u_D_on_an_unknown_group", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={nosuch=["0","0"]}'],
+     "loads.u_D has an entry for 'nosuch', which is not a dirichlet group"),
+    ("u_D_not_finite", lambda m, t: ["block", *FAST, "--set", 'loads.u_D=["1/x","0"]'],
+     "loads.u_D[0] = '1/x' is not finite on the mesh"),
+    ("u_D_all_free", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={left=["free","free"]}'],
+     "loads.u_D.left: every component is \"free\", so the group holds nothing: list it in mesh.neumann"),
+    ("u_D_free_misspelt", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={left=["fre","0"]}'],
+     "loads.u_D.left[0]: unknown name 'fre' in expression 'fre' (did you mean \"free\"?)"),
+    ("u_D_leaves_a_rigid_motion", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={left=["0","free"]}'],
+     "the body is free to move: translation along y; hold it with mesh.dirichlet components"),
+    ("u_D_3d_leaves_rotations", lambda m, t: ["box", *FAST3D, "--set", 'loads.u_D={left=["0","0","free"]}'],
+     "the body is free to move: translation along z"),
     # contact law
     ("m_n_below_1", lambda m, t: ["block", *FAST, "--set", "contact.m_n=0.5"], "contact.m_n must be >= 1"),
     ("c_n_negative", lambda m, t: ["block", *FAST, "--set", "contact.c_n=-1"], "contact.c_n must be >= 0"),
@@ -352,7 +371,8 @@ def test_bad_input(msh, tmp_path, make_args, expected):
 MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_3d", "empty_mesh",
              "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value", "unused_petsc_option",
              "quad_mesh", "m_n_above_3_in_3d", "symmetry_not_planar", "hexahedral_mesh", "empty_gamma_c_box",
-             "ksp_type_unknown", "snes_rtol_not_a_number", "mat_solver_type_not_built", "step_reaches_bad_material"]
+             "ksp_type_unknown", "snes_rtol_not_a_number", "mat_solver_type_not_built", "u_D_not_finite",
+             "u_D_3d_leaves_rotations", "step_reaches_bad_material"]
 
 
 @pytest.mark.parametrize("name", MPI_CASES)

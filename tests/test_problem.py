@@ -97,7 +97,23 @@ STRICT = [
     (with_("solver.load_steps", 2.5), "solver.load_steps must be an integer"),
     (with_("adapt.levels", True), "adapt.levels must be an integer"),
     (with_("mesh.dirichlet", ["bottom"]), "'bottom' is in both dirichlet and contact"),
+    (with_("parameters.free", 1.0), "parameter name 'free' is not allowed"),
+    (with_("loads.u_D", {"bottom": ["0", "0"]}), "'bottom', which is not a dirichlet group (it is a contact group"),
+    (with_("loads.u_D", ["free", "free"]), "every component is \"free\""),
+    (with_("loads.u_D", ["0.1", "Free"]),
+     "loads.u_D[1]: unknown name 'Free' in expression 'Free' (did you mean \"free\"?)"),
+    (with_("loads.u_D", {"left": ["0"]}), "loads.u_D.left must be a list of 2 (2D) or 3 (3D)"),
+    (with_("loads.u_D", "0"), "loads.u_D must be a vector or a table"),
+    (with_("loads", {"u_D": ["0", "free"]}), "the problem has no load: give loads.f, loads.g, a non-zero loads.u_D"),
 ]
+
+
+def test_a_prescribed_displacement_alone_is_a_load():
+    """u_D counts as a load when some held component may be non-zero (a number or an expression)."""
+    for u_D in (["0.1", "free"], {"left": ["0", "y"]}, ["p", "0"]):
+        data = with_("loads", {"u_D": u_D})
+        data["parameters"] = {"p": 0.5}
+        assert nc.Problem.from_dict(data, "t")["loads.u_D"] == u_D
 
 
 @pytest.mark.parametrize("data, message", STRICT, ids=[s[1][:40] for s in STRICT])

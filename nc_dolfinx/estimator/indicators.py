@@ -5,6 +5,7 @@ for P1 triangles (2D, plane strain) and tetrahedra (3D) alike; "facet" is an edg
     η_2K = h_K^{1/2} (Σ_{F ∈ F_K^int ∪ F_K^N} ‖J_{F,n}(u_h)‖_F² + Σ_{F ∈ F_K^S} ‖σ_t(u_h)‖_F²)^{1/2},
            J from (15): J = [σ(u_h) ν_F]_F on interior facets (the full jump; each facet counts for both
            cells), J = σ(u_h) ν − g_F on Neumann facets, g_F = mean of g over F; F_K^S: symmetry facets
+           (and rollers: the free components of σ(u_h)ν)
     η_3K = h_K^{1/2} (Σ_{F ∈ F_K^C} ‖σ_t(u_h)‖_F²)^{1/2},       σ_t = σν − σ_n ν (a vector)
     η_4K = h_K^{1/2} (Σ_{F ∈ F_K^C} ‖c_n (u_hn − g_0)_+^{m_n} + σ_n(u_h)‖_F²)^{1/2}
     η_K  = (Σ_i η_iK²)^{1/2},  η = (Σ_K η_K²)^{1/2}
@@ -20,6 +21,13 @@ Theorem 6 the boundary term of such a facet is ∫_F σ(u_h)ν·(u − v_h) = �
 component as Dirichlet data on it); it is bounded like the σ_t term on Γ_C, and h_K ‖σ_t‖_F² joins η_2K.
 Equivalently, mirroring the body across the plane makes F interior, with the jump [σν] = 2σ_t (tangential)
 and 0 (normal): the same term up to the factor 4.
+
+Prescribed displacements (loads.u_D, (2) generalised to u = u_D on Γ_D). No term of η or ζ is taken where
+Γ_D holds every component (the Neumann ids exclude Γ_D), and none is needed where u_D is linear on each
+facet of Γ_D: u_h = I_h u_D = u_D there, u − u_h vanishes on Γ_D as for u = 0, and the proof of Theorem 6 is
+unchanged. A u_D that is not linear on the facets would add the data oscillation of u_D − I_h u_D on Γ_D,
+which η does not hold. On a roller (a group with components "free") the free components are traction-free:
+their traction Σ_i free ‖(σ(u_h)ν)_i‖²_F joins η_2K like a symmetry facet's σ_t (:func:`_roller_components`).
 
 Every quantity is assembled against DG0 test functions (:func:`~nc_dolfinx.mesh.domain.cell_space`: cell i's
 values at entries i·dim …) over cells, interior facets, Neumann facets and contact/symmetry facets (or
@@ -218,6 +226,8 @@ def _facet_terms(u, fields, contact_degree, split_kinks, varying):
     symmetry = tuple(fields.symmetry_axes)
     if symmetry:
         form += ufl.inner(sigma_t, sigma_t) * wv[eta_2] * fields.ds(symmetry)
+    for group, free in _roller_components(fields).items():
+        form += sum((s * n)[i] ** 2 for i in free) * wv[eta_2] * fields.ds(group)
     one_point = {"quadrature_degree": 0}
     for group in (group for group in fields.ids["neumann"] if group not in varying):
         residual = s * n - fields.g.get(group, ufl.zero(gdim))  # constant on the facet: one point
@@ -226,6 +236,16 @@ def _facet_terms(u, fields, contact_degree, split_kinks, varying):
     dS = ufl.dS(metadata={"quadrature_degree": 0})  # P1: the jump is constant on a facet; see compile_form
     form += ufl.inner(jump, jump) * (wv("+")[eta_2] + wv("-")[eta_2]) * dS
     return assemble_cellwise(form, Qv)
+
+
+def _roller_components(fields):
+    """{Dirichlet group id: its free components} for the groups of loads.u_D with a component "free" (rollers).
+    There u_i is free and traction-free for each free component i, and the held ones are Cartesian
+    components, which π_h of (17) can hold componentwise: the boundary term of Theorem 6's proof is
+    Σ_i free ∫_F (σ(u_h)ν)_i (u − v_h)_i, bounded like a symmetry plane's σ_t term (on a roller in a
+    coordinate plane holding its normal component, Σ_i free (σν)_i² = |σ_t|²)."""
+    free = {group: [i for i, c in enumerate(components) if c is None] for group, components in fields.u_D.items()}
+    return {group: components for group, components in free.items() if components}
 
 
 def _value(expression):

@@ -11,6 +11,8 @@ SIGN_CONVENTIONS = [
     "ν is the body's outward unit normal; u_n = u·ν > 0 moves Γ_C into the foundation.",
     "Penetration (u_n − g_0)_+ >= 0; contact pressure p = c_n (u_n − g_0)_+^m_n = −σ_n >= 0 (compression).",
     "contact_force = −∫_Γ_C p ν: the force the foundation exerts on the body (it points into the body).",
+    "reaction_GROUP: the force a support (Dirichlet group or symmetry plane) exerts on the body: a group moved "
+    "outwards by loads.u_D, stretching the body, pulls it (its reaction points along the outward normal).",
 ]
 
 # name (CSV header; the JSON files keep contact_force as a list) -> meaning
@@ -45,7 +47,8 @@ COLUMNS = {
     "applied_load_x": "x component of the resultant of the given loads, ∫_Ω f + ∫_Γ_N g (_y, _z alike)",
     "reaction_GROUP_x": "x component of the force the Dirichlet or symmetry group GROUP exerts on the body "
                           "(_y, _z alike): Σ of the residual of (7) at the dofs it constrains (a dof on two "
-                          "groups counts for the first; a symmetry plane's force lies along its normal)",
+                          "groups counts for the first; a symmetry plane's force lies along its normal, a roller's along "
+                          "the components loads.u_D holds: a free component carries none)",
     "force_balance": "|applied_load + contact_force + Σ reactions| / (|applied_load| + |contact_force| + "
                      "Σ |reaction|): 0 for a body in equilibrium, within the solver's tolerance",
     "max_displacement": "max over the vertices of |u_h|",

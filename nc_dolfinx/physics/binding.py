@@ -23,8 +23,8 @@ from ..mesh.domain import UNTAGGED, Domain
 from ..problem.expressions import to_ufl, to_ufl_vector, values_at
 from ..problem.problem import check_exponent, check_reference, check_vector_sizes
 from ..problem.reading import check_file
-from ..problem.schema import ROLES
-from . import elasticity
+from ..problem.schema import FREE, ROLES
+from . import elasticity, rigid
 
 
 @dataclass
@@ -32,7 +32,8 @@ class Fields:
     """A problem's data on one mesh, as UFL coefficients of the forms of (7) (rebuilt after each
     refinement): λ, μ of Hooke's law (Constants, or DG0 fields with material regions), the body force
     f of (1), the tractions g of (3) per Neumann group, c_n, m_n and the gap g_0 of the law (4), the exact
-    displacement if given, the group ids of each role and the boundary measure ``ds``."""
+    displacement if given, the group ids of each role and the boundary measure ``ds``; the prescribed
+    displacement u_D of (2) per Dirichlet group that has one, and the symmetry planes' axes."""
     domain: Domain
     lmbda: object
     mu: object
@@ -45,6 +46,8 @@ class Fields:
     ids: dict           # role -> tuple of group ids; "neumann" includes traction-free boundary
     ds: object
     symmetry_axes: dict = field(default_factory=dict)  # symmetry group id -> coordinate axis of its normal
+    u_D: dict = field(default_factory=dict)  # Dirichlet group id -> UFL u_D per component (None: free); absent: clamped
+    boundary_values: list = field(default_factory=list)  # (Function, fem.Expression) of each prescribed condition
     notes: list = field(default_factory=list)          # remarks for the summary (not errors)
     warnings: list = field(default_factory=list)       # what the user may not have meant (see bind)
 
@@ -62,24 +65,69 @@ class Fields:
         return elasticity.sigma(u, self.lmbda, self.mu)
 
     def boundary_conditions(self, V):
-        """Dirichlet conditions on the vector P1 space ``V``: u = 0 on Γ_D (2); on each symmetry plane
-        the normal component of u is 0."""
+        """Dirichlet conditions on the vector P1 space ``V``: (2) u = 0 on Γ_D, generalised to u = u_D on the
+        groups of ``loads.u_D`` — one condition for a group that holds every component, one on ``V.sub(i)``
+        per held component of a roller — and on each symmetry plane the normal component of u is 0. Where
+        groups share a vertex the last condition sets its value: clamped groups, then those of u_D (in
+        ``loads.u_D``'s order), then the symmetry planes. The values are P1 interpolants of u_D
+        (:meth:`update_boundary_values`)."""
         tags, fdim = self.domain.facet_tags, self.domain.mesh.topology.dim - 1
-        clamped = tags.indices[np.isin(tags.values, self.ids["dirichlet"])]
+        self.boundary_values = []
+        clamped = tags.indices[np.isin(tags.values, [i for i in self.ids["dirichlet"] if i not in self.u_D])]
         bcs = [fem.dirichletbc(np.zeros(self.dim, dtype=PETSc.ScalarType),
                                fem.locate_dofs_topological(V, fdim, clamped), V)]
+        for group, components in self.u_D.items():
+            bcs += self._prescribed(V, tags.indices[tags.values == group], components)
         for group, axis in self.symmetry_axes.items():
             facets = tags.indices[tags.values == group]
             dofs = fem.locate_dofs_topological(V.sub(axis), fdim, facets)
             bcs.append(fem.dirichletbc(PETSc.ScalarType(0), dofs, V.sub(axis)))
+        self.update_boundary_values()
         return bcs
+
+    def held_components(self, group):
+        """The components of u that a Dirichlet group holds: the prescribed ones of u_D, all when clamped."""
+        components = self.u_D.get(group)
+        if components is None:
+            return tuple(range(self.dim))
+        return tuple(i for i, c in enumerate(components) if c is not None)
+
+    def _prescribed(self, V, facets, components):
+        """u = u_D on ``facets``: one condition on V if every component is held, else one per held component
+        on V.sub(i) (its values in the collapsed space)."""
+        fdim = self.domain.mesh.topology.dim - 1
+        if all(c is not None for c in components):
+            return [fem.dirichletbc(self._values(V, ufl.as_vector(components)),
+                                    fem.locate_dofs_topological(V, fdim, facets))]
+        bcs = []
+        for i, component in enumerate(components):
+            if component is not None:
+                sub = V.sub(i)
+                collapsed, _ = sub.collapse()
+                dofs = fem.locate_dofs_topological((sub, collapsed), fdim, facets)
+                bcs.append(fem.dirichletbc(self._values(collapsed, component), dofs, sub))
+        return bcs
+
+    def _values(self, space, expression):
+        """A Function of ``space`` that :meth:`update_boundary_values` interpolates ``expression`` into."""
+        values = fem.Function(space)
+        self.boundary_values.append((values, fem.Expression(expression, versions.interpolation_points(space))))
+        return values
+
+    def update_boundary_values(self):
+        """Interpolate u_D again into the prescribed values of the conditions (after a parameter's Constant
+        changed: the compiled expressions stay). A solver assembles its lifted load from these values when
+        it is made, so call this before making it."""
+        for values, expression in self.boundary_values:
+            values.interpolate(expression)
 
 
 def bind(problem, domain):
     """The problem's data on ``domain`` as :class:`Fields`: the coefficients of (7) and the measures of
-    Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, the dimension of every
-    vector, m_n in 3D, the reference's dimension, and that every expression is finite where it is used
-    (c_n and g_0 also >= 0 on Γ_C); raises :class:`InputError` for each. Boundary groups of the mesh in no
+    Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, that the supports hold every
+    rigid motion (before any solve: :mod:`.rigid`), the dimension of every vector, m_n in 3D, the
+    reference's dimension, and that every expression is finite where it is used (u_D on its group, c_n and
+    g_0 also >= 0 on Γ_C); raises :class:`InputError` for each. Boundary groups of the mesh in no
     role are traction-free: ``Fields.warnings`` says so."""
     msh, params, values = domain.mesh, problem.parameters, problem.values
     dim = msh.geometry.dim
@@ -109,6 +157,8 @@ def bind(problem, domain):
                     u_exact, ids, ds)
     fields.symmetry_axes = {i: _symmetry_axis(domain, i, _name(domain, i)) for i in ids["symmetry"]
                             if counts.get(i, 0)}
+    fields.u_D = _prescribed_displacements(problem, domain, ids["dirichlet"])
+    _check_rigid_motions_held(fields)
     unassigned = [f"'{_name(domain, i)}'" for i in free if i != UNTAGGED]
     if unassigned:
         fields.warnings.append(
@@ -189,9 +239,59 @@ def _loads(problem, domain, listed_neumann, neumann, u_exact, lmbda, mu):
         g = {i: value for i in listed_neumann}
     elif isinstance(given, dict):
         for group, vector in given.items():
-            group_id = domain.facet_groups.get(group, int(group) if group.isdigit() else None)
-            g[group_id] = to_ufl_vector(vector, msh, params, f"loads.g.{group}")
+            g[_table_group_id(domain, group)] = to_ufl_vector(vector, msh, params, f"loads.g.{group}")
     return f, g
+
+
+def _table_group_id(domain, group):
+    """The id of a group named by a key of a per-group table (a name, or a tag written as a string)."""
+    return domain.facet_groups.get(group, int(group) if group.isdigit() else None)
+
+
+def _u_D_by_group(problem, domain, dirichlet):
+    """``loads.u_D`` as {group id: (key, vector as written)}: one vector for every Dirichlet group, or the
+    table's groups (the others stay clamped)."""
+    given = problem.values["loads"]["u_D"]
+    if isinstance(given, list):
+        return {i: ("loads.u_D", given) for i in dirichlet}
+    return {_table_group_id(domain, group): (f"loads.u_D.{group}", vector) for group, vector in (given or {}).items()}
+
+
+def _prescribed_displacements(problem, domain, dirichlet):
+    """u_D of (2) per Dirichlet group that ``loads.u_D`` names, as UFL per component (None: free)."""
+    msh, params = domain.mesh, problem.parameters
+    return {group: [None if text == FREE else to_ufl(text, msh, params) for text in vector]
+            for group, (_, vector) in _u_D_by_group(problem, domain, dirichlet).items()}
+
+
+def _check_rigid_motions_held(fields):
+    """The supports must hold every rigid motion (:mod:`.rigid`): the prescribed components of the
+    Dirichlet groups and the normal components of the symmetry planes; the foundation does not count (it
+    restrains a motion only once pressed)."""
+    domain = fields.domain
+    held = [(_vertices(domain, (i,)), fields.held_components(i)) for i in fields.ids["dirichlet"]]
+    held += [(_vertices(domain, (i,)), (axis,)) for i, axis in fields.symmetry_axes.items()]
+    centre, scale = _bounding_box(domain)
+    free = rigid.free_rigid_motions(held, centre, scale, domain.comm)
+    if free:
+        raise InputError(f"the body is free to move: {', '.join(free)}; hold it with mesh.dirichlet components "
+                         "(loads.u_D) or mesh.symmetry planes")
+
+
+def _bounding_box(domain):
+    """The centre of the mesh's bounding box and half its largest side (over all ranks)."""
+    msh = domain.mesh
+    low, high = _global_bounds(domain.comm, msh.geometry.x[:, :msh.geometry.dim])
+    return 0.5 * (low + high), 0.5 * float(np.max(high - low))
+
+
+def _global_bounds(comm, x):
+    """The smallest and largest coordinates of points ``x`` (n, dim) over all ranks (elementwise over the
+    coordinates: the pickling allreduce would compare whole arrays)."""
+    low, high = np.empty(x.shape[1]), np.empty(x.shape[1])
+    comm.Allreduce(x.min(axis=0) if len(x) else np.full(x.shape[1], np.inf), low, MPI.MIN)
+    comm.Allreduce(x.max(axis=0) if len(x) else np.full(x.shape[1], -np.inf), high, MPI.MAX)
+    return low, high
 
 
 def _facet_counts(domain):
@@ -213,14 +313,9 @@ def _symmetry_axis(domain, group_id, name):
     tags = domain.facet_tags
     facets = tags.indices[tags.values == group_id]
     nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
-    x = msh.geometry.x[nodes.ravel(), :msh.geometry.dim]
-    comm = domain.comm
-    # elementwise over the coordinates (the pickling allreduce would compare whole arrays)
-    low, high = np.empty(msh.geometry.dim), np.empty(msh.geometry.dim)
-    comm.Allreduce(x.min(axis=0) if len(x) else np.full(msh.geometry.dim, np.inf), low, MPI.MIN)
-    comm.Allreduce(x.max(axis=0) if len(x) else np.full(msh.geometry.dim, -np.inf), high, MPI.MAX)
-    extent = comm.allreduce(float(np.ptp(msh.geometry.x, axis=0).max()) if len(msh.geometry.x) else 0.0,
-                            MPI.MAX)
+    low, high = _global_bounds(domain.comm, msh.geometry.x[nodes.ravel(), :msh.geometry.dim])
+    extent = domain.comm.allreduce(float(np.ptp(msh.geometry.x, axis=0).max()) if len(msh.geometry.x) else 0.0,
+                                   MPI.MAX)
     flat = np.flatnonzero(high - low <= 1e-10 * extent)
     if len(flat) != 1:
         raise InputError(f"symmetry group '{name}' does not lie in a plane normal to a coordinate axis "
@@ -240,8 +335,9 @@ def _check_finite_on_mesh(problem, domain, ids, listed_neumann):
     if isinstance(loads["g"], list):
         checks += [(f"loads.g[{i}]", text, listed_neumann) for i, text in enumerate(loads["g"])]
     for group, vector in (loads["g"] or {}).items() if isinstance(loads["g"], dict) else ():
-        group_id = domain.facet_groups.get(group, int(group) if group.isdigit() else None)
-        checks += [(f"loads.g.{group}[{i}]", text, (group_id,)) for i, text in enumerate(vector)]
+        checks += [(f"loads.g.{group}[{i}]", text, (_table_group_id(domain, group),)) for i, text in enumerate(vector)]
+    for group, (key, vector) in _u_D_by_group(problem, domain, ids["dirichlet"]).items():
+        checks += [(f"{key}[{i}]", text, (group,)) for i, text in enumerate(vector) if text != FREE]
     checks += [(f"contact.{name}", contact[name], ids["contact"]) for name in ("c_n", "gap")]
     for key, text, groups in checks:
         x = _vertices(domain, groups)

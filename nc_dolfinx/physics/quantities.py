@@ -65,7 +65,9 @@ def support_forces(u, fields):
     over its dofs. The load's resultant is Σ_i L(φ_i) = L(1) with L's own quadrature. At the free dofs r_i
     is Newton's residual, so reactions, contact force and load sum to zero within the solver's tolerance.
     A dof that two groups hold counts for the first (the Dirichlet groups, then the symmetry planes, in the
-    problem's order); a symmetry plane's force lies along its normal."""
+    problem's order); a symmetry plane's force lies along its normal, and a roller's (a Dirichlet group
+    with components of ``loads.u_D`` left free) along its held components only: a free component carries
+    no reaction (its r_i is Newton's residual there)."""
     V, msh = u.function_space, fields.domain.mesh
     pieces = forms.normal_compliance_forms(u, fields)
     bs, n_owned = V.dofmap.index_map_bs, V.dofmap.index_map.size_local
@@ -76,7 +78,8 @@ def support_forces(u, fields):
     taken = np.zeros_like(r, dtype=bool)
     names = {i: name for name, i in fields.domain.facet_groups.items()}
     tags, fdim = fields.domain.facet_tags, msh.topology.dim - 1
-    held = [(i, range(bs)) for i in fields.ids["dirichlet"]] + [(i, [a]) for i, a in fields.symmetry_axes.items()]
+    held = [(i, fields.held_components(i)) for i in fields.ids["dirichlet"]]
+    held += [(i, [a]) for i, a in fields.symmetry_axes.items()]
     reactions = {}
     for group, components in held:
         blocks = np.asarray(fem.locate_dofs_topological(V, fdim, tags.indices[tags.values == group]))

@@ -19,7 +19,8 @@ from .reading import apply_overrides, read_toml, set_dotted
 @dataclass(frozen=True)
 class Problem:
     """A validated normal compliance problem (paper §2): the body's material (Hooke's law), the loads f
-    and g of (1) and (3), the clamped part Γ_D of (2), and c_n, m_n and the gap g_0 of the law (4) on Γ_C,
+    and g of (1) and (3), Γ_D of (2) — clamped, or held at a prescribed displacement u = u_D (the paper's
+    u = 0 generalised, with components left free on rollers) — and c_n, m_n and the gap g_0 of the law (4) on Γ_C,
     with the adaptive loop's and the solver's settings. It holds no mesh: bind it to one with
     :func:`bind` (or let :func:`solve` / :func:`adapt` do it).
 
@@ -192,16 +193,11 @@ def _check_consistency(values, given):
         clash = [k for k in ("f", "g") if loads[k] is not None]
         if clash:
             raise InputError(f"loads.from_exact = true computes f and g from [exact] u: remove loads.{clash[0]}")
-    elif loads["f"] is None and loads["g"] is None:
-        raise InputError("the problem has no load: give loads.f, loads.g or loads.from_exact (with no load "
-                         "the solution is u = 0)")
-    if isinstance(loads["g"], dict):
-        for group in loads["g"]:
-            if group not in [str(g) for g in mesh["neumann"]]:
-                raise InputError(f"loads.g has an entry for '{group}', which is not a neumann group "
-                                 f"(neumann = {mesh['neumann']})")
-    if isinstance(loads["g"], list) and not mesh["neumann"]:
-        raise InputError("loads.g is given but mesh.neumann lists no group")
+    elif loads["f"] is None and loads["g"] is None and not moves_a_support(loads["u_D"], values["parameters"]):
+        raise InputError("the problem has no load: give loads.f, loads.g, a non-zero loads.u_D or "
+                         "loads.from_exact (with no load the solution is u = 0)")
+    check_group_table(loads["g"], "loads.g", "neumann", mesh)
+    check_group_table(loads["u_D"], "loads.u_D", "dirichlet", mesh)
     dim = 2 if kind == "rectangle" else 3 if kind == "box" else None
     if dim:
         check_vector_sizes(values, dim)
@@ -221,6 +217,26 @@ def _check_consistency(values, given):
     check_reference(values, dim)
 
 
+def check_group_table(table, key, role, mesh):
+    """A per-group table of loads (``loads.g``, ``loads.u_D``) names groups of its role only; a single
+    vector needs at least one group of that role."""
+    if isinstance(table, list) and not mesh[role]:
+        raise InputError(f"{key} is given but mesh.{role} lists no group")
+    for group in table if isinstance(table, dict) else ():
+        if group not in [str(g) for g in mesh[role]]:
+            other = next((r for r in schema.ROLES if group in [str(g) for g in mesh[r]]), None)
+            where = f"it is a {other} group" if other else "it is in no role"
+            raise InputError(f"{key} has an entry for '{group}', which is not a {role} group ({where}; "
+                             f"{role} = {mesh[role]})")
+
+
+def moves_a_support(u_D, parameters):
+    """Whether a prescribed displacement (``loads.u_D``) may be non-zero: then it loads the body."""
+    vectors = u_D.values() if isinstance(u_D, dict) else [u_D] if u_D else []
+    components = [c for vector in vectors for c in vector if c != schema.FREE]
+    return any(uses_coordinates(c) or to_float(c, parameters) != 0 for c in map(str, components))
+
+
 def check_reference(values, dim):
     """Hertz's line contact is a 2D reference, the sphere's a 3D one."""
     hertz = values["reference"]["hertz"]
@@ -232,8 +248,10 @@ def check_vector_sizes(values, dim):
     """Every vector of the problem has one component per coordinate of the mesh."""
     loads, exact = values["loads"], values["exact"]
     vectors = [("loads.f", loads["f"]), ("exact.u", exact["u"])]
-    g = loads["g"]
-    vectors += [("loads.g", g)] if isinstance(g, list) else [(f"loads.g.{k}", v) for k, v in (g or {}).items()]
+    for key in ("g", "u_D"):
+        table = loads[key]
+        vectors += [(f"loads.{key}", table)] if isinstance(table, list) else \
+            [(f"loads.{key}.{k}", v) for k, v in (table or {}).items()]
     for where, vector in vectors:
         if vector is not None and len(vector) != dim:
             raise InputError(f"{where} has {len(vector)} components but the mesh is {dim}D: "

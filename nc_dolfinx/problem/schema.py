@@ -95,8 +95,8 @@ KEYS = [
         "required with them"),
     Key("mesh.diagonal", "choice", "diagonal of the rectangle's cells", "right",
         ("left", "right", "crossed", "left_right", "right_left")),
-    Key("mesh.dirichlet", "groups", "boundary groups (names or integer tags) of Γ_D, clamped (u = 0)",
-        REQUIRED),
+    Key("mesh.dirichlet", "groups", "boundary groups (names or integer tags) of Γ_D: clamped (u = 0), or "
+        "held at `loads.u_D`", REQUIRED),
     Key("mesh.contact", "groups", "boundary groups of Γ_C, on the foundation", REQUIRED),
     Key("mesh.neumann", "groups", "boundary groups of Γ_N with a traction g; a boundary facet in no group, "
         "or in a group in no role, is Γ_N with g = 0 (a group in no role is named in a warning)", []),
@@ -113,6 +113,11 @@ KEYS = [
     Key("loads.g", "traction", "traction g on Γ_N: one vector for every listed `neumann` group, or a table "
         "`{group = [...]}` (default: none)"),
     Key("loads.g.*", "vector", "traction on one `neumann` group"),
+    Key("loads.u_D", "displacement", "prescribed displacement u = u_D on Γ_D: one vector for every "
+        "`dirichlet` group, or a table `{group = [...]}` (groups it does not name stay clamped); a component "
+        "`\"free\"` is left free (a roller) (default: every group clamped, u = 0)"),
+    Key("loads.u_D.*", "prescribed", "prescribed displacement of one `dirichlet` group: an "
+        "expression or `\"free\"` per coordinate"),
     Key("loads.from_exact", "boolean", "f = −div σ(u), g = σ(u)ν from `[exact] u` (instead of f and g)",
         False),
     # [contact]
@@ -166,6 +171,8 @@ SECTIONS = ("title", "description", "parameters", "mesh", "material", "loads", "
             "solver", "estimator", "reference", "steps")
 _BY_PATH = {key.path: key for key in KEYS}
 ROLES = ("dirichlet", "neumann", "contact", "symmetry")
+FREE = "free"  # a component of loads.u_D left free (a roller)
+GROUP_TABLES = ("traction", "displacement")  # a vector for all groups of a role, or a table of them
 
 
 def find_key(path):
@@ -333,9 +340,30 @@ def _option(value, where, _):
     return value
 
 
+def _displacement_vector(value, where, parameters):
+    """A prescribed displacement: per coordinate an expression, or "free" (that component is not held)."""
+    if not isinstance(value, list) or len(value) not in (2, 3):
+        raise InputError(f"{where} must be a list of 2 (2D) or 3 (3D) expressions or \"{FREE}\", got {brief(value)}")
+    if all(v == FREE for v in value):
+        raise InputError(f"{where}: every component is \"{FREE}\", so the group holds nothing: list it in "
+                         "mesh.neumann instead (traction-free)")
+    return [v if v == FREE else _free_or_expression(v, f"{where}[{i}]", parameters) for i, v in enumerate(value)]
+
+
+def _free_or_expression(value, where, parameters):
+    """An expression; a misspelt "free" (a name close to it) says so."""
+    try:
+        return _expression(value, where, parameters)
+    except InputError as err:
+        near = isinstance(value, str) and difflib.get_close_matches(value.strip().lower(), [FREE], cutoff=0.6)
+        if near and value.strip() not in parameters:
+            raise InputError(f"{err} (did you mean \"{FREE}\"?)") from None
+        raise
+
+
 _KINDS = {"number": _number, "expression": _expression, "vector": _vector, "groups": _groups,
           "integer": _integer, "boolean": _boolean, "string": _string, "corners": _corners,
-          "cells": _cells, "option": _option}
+          "cells": _cells, "option": _option, "prescribed": _displacement_vector}
 
 
 def convert(path, value, where=None, parameters=None):
@@ -366,7 +394,7 @@ def parameters_of(data):
     if not isinstance(table, dict):
         raise InputError(f"[parameters] must be a table, got {table!r}")
     values = {}
-    reserved = set(expressions.COORDINATES) | {"pi"} | set(expressions.FUNCTIONS)
+    reserved = set(expressions.COORDINATES) | {"pi", FREE} | set(expressions.FUNCTIONS)  # (FREE: loads.u_D)
     for name, text in table.items():
         if name in reserved or not name.isidentifier() or len(name) > MAX_NAME:
             raise InputError(f"parameter name '{brief_text(name)}' is not allowed (reserved or not an identifier)")
@@ -474,8 +502,9 @@ def _section(prefix, table, parameters, given):
         if key is None:
             raise InputError(f"unknown key '{brief_text(path)}'" + _suggest(name, _children(prefix), prefix + ".{}"))
         given.add(path)
-        if key.kind == "traction":
-            out[name] = _traction(value, path, parameters, given)
+        if key.kind in GROUP_TABLES:
+            vector = _vector if key.kind == "traction" else _displacement_vector
+            out[name] = _per_group(value, path, parameters, given, vector)
         elif key.kind == "table":
             if not isinstance(value, dict):
                 raise InputError(f"{path} must be a table, got {brief(value)}")
@@ -496,7 +525,7 @@ def _is_table_prefix(path):
     """Whether ``path`` names a table of the schema (``material.regions``, ``material.regions.soft``)."""
     parts = path.split(".")
     return any(len(k.path.split(".")) > len(parts) and _matches(k.path.split(".")[:len(parts)], parts)
-               and k.kind not in ("traction",) for k in KEYS) and find_key(path) is None
+               and k.kind not in GROUP_TABLES for k in KEYS) and find_key(path) is None
 
 
 def _required_hint(key):
@@ -505,9 +534,10 @@ def _required_hint(key):
             "contact.m_n": ": the exponent of the law has no default"}.get(key.path, "")
 
 
-def _traction(value, path, parameters, given):
+def _per_group(value, path, parameters, given, vector):
+    """A vector for every group of a role (``loads.g``, ``loads.u_D``), or a table {group: vector}."""
     if isinstance(value, list):
-        return _vector(value, path, parameters)
+        return vector(value, path, parameters)
     if not isinstance(value, dict):
         raise InputError(f"{path} must be a vector or a table {{group = [...]}}, got {brief(value)}")
     for group in value:
@@ -515,7 +545,8 @@ def _traction(value, path, parameters, given):
             raise InputError(f"{path}: group name {brief(group)} must be printable and at most {MAX_NAME} "
                              "characters")
         given.add(f"{path}.{group}")
-    return {group: _vector(vec, f"{path}.{group}", parameters) for group, vec in value.items()}
+    return {group: vector(vec, f"{path}.{group}", parameters) for group, vec in value.items()}
+
 
 
 def _copy(value):

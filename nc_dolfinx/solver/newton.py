@@ -121,12 +121,16 @@ def _check_finite(matrix_or_vector, message):
 
 
 class NonlinearSolver(Recoveries):
-    """SNES for (7): F(u) = K u + j_n(u, ·) − λ L = 0, J(u) = K + j_n'(u), homogeneous Dirichlet BCs.
+    """SNES for (7): F(u) = K u + j_n(u, ·) − λ L = 0, J(u) = K + j_n'(u), with Dirichlet BCs u = λ u_D
+    ((2) generalised; u_D = 0 on clamped groups and symmetry planes).
 
     The bulk stiffness K and the load vector L are assembled once (with the Dirichlet rows of K set to
-    the identity and those of L to zero); a residual evaluation is then one mat-vec plus an assembly over
-    Γ_C, and a Jacobian evaluation a copy of K plus the Γ_C contribution. The Dirichlet dofs of the
-    iterate stay zero, so K's zeroed Dirichlet columns lose nothing.
+    the identity and those of L to u_D, and L lifted: L − K u_D on the free rows, since K's Dirichlet
+    columns are zeroed); a residual evaluation is then one mat-vec plus an assembly over Γ_C, and a
+    Jacobian evaluation a copy of K plus the Γ_C contribution. The Dirichlet dofs of the iterate are set to
+    λ u_D before each solve and every Newton step leaves them there (its Dirichlet entries are zero), so
+    F's Dirichlet rows x_D − λ u_D vanish and the prescribed displacement ramps with the loads (load steps,
+    the load continuation). With u_D = 0 the lifting adds nothing: the homogeneous problem of the paper.
     """
 
     def __init__(self, forms, u, bcs, options, preconditioner_matrix="auto"):
@@ -170,12 +174,15 @@ class NonlinearSolver(Recoveries):
         return matrix
 
     def _assemble_constant_parts(self, forms):
-        """Compile the forms; assemble K (Dirichlet rows: identity) and L (Dirichlet rows: zero) once."""
+        """Compile the forms; assemble K (Dirichlet rows: identity) and the lifted L (free rows: L − K u_D,
+        Dirichlet rows: u_D) once."""
         self._use_contact_forms(forms)
         self.forms = forms  # (the c_n continuation builds its forms from them, when used)
-        self.K = fem_petsc.assemble_matrix(fem.form(forms.a), bcs=self.bcs)
+        bulk = fem.form(forms.a)
+        self.K = fem_petsc.assemble_matrix(bulk, bcs=self.bcs)
         self.K.assemble()
         self.load = fem_petsc.assemble_vector(fem.form(forms.L))
+        versions.lift(self.load, bulk, self.bcs)
         self.load.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fem_petsc.set_bc(self.load, self.bcs)
         _check_finite(self.K, "the stiffness matrix K of (7) overflows double precision: material.E (or a "
@@ -266,7 +273,7 @@ class NonlinearSolver(Recoveries):
             local.set(0.0)
         fem_petsc.assemble_vector(self.contact, self.j_n)
         self.contact.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        fem_petsc.set_bc(self.contact, self.bcs)
+        self.zero_dirichlet_rows(self.contact)
         return self.contact
 
     def _residual(self, snes, x, b):
@@ -295,8 +302,8 @@ class NonlinearSolver(Recoveries):
         3D box), and a step with y_D ≠ 0 moves the clamped dofs. Where Γ_D meets Γ_C, Π then depends on
         x_D while F_D does not carry j_n's part (its Dirichlet rows are x_D), so F is no longer ∇Π along y:
         the line search stalled at ‖F‖ ≈ 1e-4 ‖F_0‖ on the 3D box (65 Newton steps and three fallbacks).
-        Zeroing y_D keeps x_D = 0 and leaves F·y (F_D = 0) unchanged: y stays a descent direction of Π."""
-        fem_petsc.set_bc(y, self.bcs)
+        Zeroing y_D keeps x_D = λ u_D and leaves F·y (F_D = 0) unchanged: y stays a descent direction of Π."""
+        self.zero_dirichlet_rows(y)
         self._predict(y)  # first: the bilateral predictor reassembles A
         if self.bilateral_candidate:
             self.bilateral_candidate = False
@@ -552,7 +559,7 @@ class NonlinearSolver(Recoveries):
             if rhs.norm() == 0.0:
                 return False
             rhs.axpy(self.load_factor, self.load)
-            fem_petsc.set_bc(rhs, self.bcs)
+            self.zero_dirichlet_rows(rhs)
             step = self._bilateral_step(bilateral_jacobian, rhs)
             if not self._full_step_decreases(x, step):
                 self.force_refresh = True  # P now holds the bilateral Jacobian
@@ -585,7 +592,7 @@ class NonlinearSolver(Recoveries):
             ksp.setTolerances(*tolerances)
         self.extra_krylov += ksp.getIterationNumber()  # (SNES counts its own solves only)
         y.scale(-1.0)
-        fem_petsc.set_bc(y, self.bcs)  # the clamped dofs stay put
+        self.zero_dirichlet_rows(y)  # the held dofs stay put
         return y
 
     def _full_step_decreases(self, x, y):
@@ -603,9 +610,18 @@ class NonlinearSolver(Recoveries):
         finally:
             trial.destroy()
 
+    def zero_dirichlet_rows(self, vector):
+        """The Dirichlet entries of a step, or of a residual's part, set to zero (whatever u_D is)."""
+        versions.set_dirichlet_rows(vector, self.bcs, 0.0)
+
+    def impose_dirichlet_values(self, x):
+        """x_D = λ u_D at the current load factor λ: the prescribed displacement ramps with the loads."""
+        versions.set_dirichlet_rows(x, self.bcs, self.load_factor)
+
     def _snes_solve(self, x, stats, target):
         """SNES from x to ‖F‖ <= target, given as both atol and rtol ‖F(x)‖: then it never stops above the
         target (and Forcing never solves a linear system beyond half of it)."""
+        self.impose_dirichlet_values(x)  # (the load continuation changes λ between solves)
         self._residual(self.snes, x, self.b)
         fnorm = self.b.norm()
         if fnorm <= target:  # (PETSc refuses rtol >= 1) an initial guess that already solves (7)
@@ -669,6 +685,7 @@ class NonlinearSolver(Recoveries):
     def _solve_load_step(self, x, stats, factor):
         """Solve at the current load factor from x (the previous step's solution); ``factor``: its
         increment. Returns the fallbacks used."""
+        self.impose_dirichlet_values(x)
         self._residual(self.snes, x, self.b)
         target = self._target(self.b.norm())
         start = x.copy()
@@ -708,8 +725,7 @@ class NonlinearSolver(Recoveries):
     def solve(self, load_steps=1):
         """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""
         stats, start = SolveStats(), time.perf_counter()
-        x = versions.petsc_vec(self.u).copy()
-        fem_petsc.set_bc(x, self.bcs)  # homogeneous Dirichlet data: the guess must satisfy it
+        x = versions.petsc_vec(self.u).copy()  # (its Dirichlet dofs are set in each load step)
         self._reset_preconditioner_state()
         recoveries = []
         try:

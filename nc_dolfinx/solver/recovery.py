@@ -107,7 +107,7 @@ class Recoveries:
         C.assemble()
         c, k = C.getDiagonal(), self.K.getDiagonal()
         c.pointwiseDivide(c, k)
-        fem_petsc.set_bc(c, self.bcs)  # (the clamped dofs: zero)
+        self.zero_dirichlet_rows(c)  # (the held dofs: zero)
         ratio = c.max()[1]
         for obj in (C, c, k):
             obj.destroy()
