@@ -26,6 +26,7 @@ from .physics.binding import bind
 from .problem import schema
 from .errors import InputError
 from .solver import NonlinearSolver, SolveStats, solver_options
+from .solver.settling import settle
 
 log = logging.getLogger("nc_dolfinx")
 
@@ -62,11 +63,14 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     else:
         u = refinement.transfer(initial, V)
     u.name = "displacement"
+    steps = load_steps or settings["load_steps"]
+    if initial is None and fields.free_motions is not None:  # held by the foundation alone along them
+        settle(u, fields, 1.0 / steps)
     options = solver_options(settings["preset"], settings["petsc_options"], petsc_options)
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
                              options, preconditioner_matrix or settings["preconditioner_matrix"])
     try:
-        stats = solver.solve(load_steps or settings["load_steps"])
+        stats = solver.solve(steps)
     finally:
         solver.destroy()
     return Solution(u, fields, stats)

@@ -196,8 +196,8 @@ CASES = [
     ("unknown_group_tag", lambda m, t: ["block", *FAST, "--set", "mesh.contact=[7]"],
      "contact group 7 is not a boundary tag"),
     ("empty_gamma_d_gmsh", lambda m, t: [gmsh_problem(m, "interior_clamp")], "Γ_D (dirichlet) is empty"),
-    ("empty_gamma_d_rectangle", lambda m, t: ["block", *FAST, "--set", "mesh.dirichlet=[]"],
-     "Γ_D (dirichlet) is empty"),
+    ("no_gamma_d_block_slides", lambda m, t: ["block", *FAST, "--set", "mesh.dirichlet=[]"],
+     "the body is free to move: translation along x; the foundation does not move under it"),
     ("empty_gamma_c_gmsh", lambda m, t: [gmsh_problem(m, "interior_base")], "Γ_C (contact) is empty"),
     ("empty_gamma_c_rectangle", lambda m, t: ["block", *FAST, "--set", "mesh.contact=[]"],
      "Γ_C (contact) is empty"),
@@ -243,10 +243,16 @@ CASES = [
      "loads.u_D.left: every component is \"free\", so the group holds nothing: list it in mesh.neumann"),
     ("u_D_free_misspelt", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={left=["fre","0"]}'],
      "loads.u_D.left[0]: unknown name 'fre' in expression 'fre' (did you mean \"free\"?)"),
-    ("u_D_leaves_a_rigid_motion", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={left=["0","free"]}'],
-     "the body is free to move: translation along y; hold it with mesh.dirichlet components"),
-    ("u_D_3d_leaves_rotations", lambda m, t: ["box", *FAST3D, "--set", 'loads.u_D={left=["0","0","free"]}'],
-     "the body is free to move: translation along z"),
+    ("u_D_roller_and_loads_pull_off", lambda m, t: ["block", *FAST, "--set", 'loads.u_D={left=["0","free"]}',
+                                                    "--set", 'loads.f=["0","10"]', "--set", 'loads.g={top=["0","20*x"]}'],
+     "the body is free to move: translation along y; the loads pull it off the foundation: hold it with"),
+    ("u_D_3d_roller_and_loads_pull_off", lambda m, t: ["box", *FAST3D, "--set", 'loads.u_D={left=["0","0","free"]}',
+                                                       "--set", 'loads.f=["0","0","10"]', "--set", 'loads.g={top=["0","0","1"]}'],
+     "the body is free to move: translation along z; the loads pull it off the foundation"),
+    ("nothing_presses_onto_the_foundation", lambda m, t: ["block", *FAST, "--set", "mesh.dirichlet=[]",
+                                                          "--set", 'mesh.symmetry=["left"]', "--set", 'loads.f=["0","0"]',
+                                                          "--set", 'loads.g={top=["1","0"]}'],
+     "the body is free to move: translation along y; nothing presses the body onto the foundation"),
     # contact law
     ("m_n_below_1", lambda m, t: ["block", *FAST, "--set", "contact.m_n=0.5"], "contact.m_n must be >= 1"),
     ("c_n_negative", lambda m, t: ["block", *FAST, "--set", "contact.c_n=-1"], "contact.c_n must be >= 0"),
@@ -372,7 +378,7 @@ MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_
              "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value", "unused_petsc_option",
              "quad_mesh", "m_n_above_3_in_3d", "symmetry_not_planar", "hexahedral_mesh", "empty_gamma_c_box",
              "ksp_type_unknown", "snes_rtol_not_a_number", "mat_solver_type_not_built", "u_D_not_finite",
-             "u_D_3d_leaves_rotations", "step_reaches_bad_material"]
+             "u_D_3d_roller_and_loads_pull_off", "no_gamma_d_block_slides", "step_reaches_bad_material"]
 
 
 @pytest.mark.parametrize("name", MPI_CASES)

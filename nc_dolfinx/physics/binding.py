@@ -48,6 +48,7 @@ class Fields:
     symmetry_axes: dict = field(default_factory=dict)  # symmetry group id -> coordinate axis of its normal
     u_D: dict = field(default_factory=dict)  # Dirichlet group id -> UFL u_D per component (None: free); absent: clamped
     boundary_values: list = field(default_factory=list)  # (Function, fem.Expression) of each prescribed condition
+    free_motions: tuple = None  # rigid motions only the foundation can hold: (coefficients (k, m), centre, scale)
     notes: list = field(default_factory=list)          # remarks for the summary (not errors)
     warnings: list = field(default_factory=list)       # what the user may not have meant (see bind)
 
@@ -137,6 +138,8 @@ def bind(problem, domain):
     ids = _role_ids(problem, domain)
     counts = _facet_counts(domain)
     for role, symbol in (("dirichlet", "Γ_D"), ("contact", "Γ_C")):
+        if role == "dirichlet" and not values["mesh"]["dirichlet"]:
+            continue  # no Γ_D: the rigid-motion check decides whether the body is held
         if sum(counts.get(i, 0) for i in ids[role]) == 0:
             raise InputError(f"{symbol} ({role}) is empty: no boundary facet in groups "
                              f"{values['mesh'][role]}")
@@ -265,17 +268,17 @@ def _prescribed_displacements(problem, domain, dirichlet):
 
 
 def _check_rigid_motions_held(fields):
-    """The supports must hold every rigid motion (:mod:`.rigid`): the prescribed components of the
-    Dirichlet groups and the normal components of the symmetry planes; the foundation does not count (it
-    restrains a motion only once pressed)."""
+    """The rigid motions the supports leave free (:mod:`.rigid`): the prescribed components of the Dirichlet
+    groups and the normal components of the symmetry planes hold the others. Only the foundation can hold
+    these, once pressed: ``fields.free_motions`` keeps them for the cold start, which decides whether it
+    does (:mod:`nc_dolfinx.solver.settling`)."""
     domain = fields.domain
     held = [(_vertices(domain, (i,)), fields.held_components(i)) for i in fields.ids["dirichlet"]]
     held += [(_vertices(domain, (i,)), (axis,)) for i, axis in fields.symmetry_axes.items()]
     centre, scale = _bounding_box(domain)
-    free = rigid.free_rigid_motions(held, centre, scale, domain.comm)
-    if free:
-        raise InputError(f"the body is free to move: {', '.join(free)}; hold it with mesh.dirichlet components "
-                         "(loads.u_D) or mesh.symmetry planes")
+    free = rigid.free_motions(rigid.gram_matrix(held, centre, scale, domain.comm))
+    if free.shape[1]:
+        fields.free_motions = (free, centre, scale)
 
 
 def _bounding_box(domain):

@@ -1,9 +1,10 @@
 """Which rigid motions the supports leave free, decided before any solve.
 
-Elasticity alone does not resist a rigid motion r (ε(r) = 0): (7) has a unique solution only if the
-Dirichlet groups and symmetry planes hold every r (the normal compliance foundation restrains a motion
-only once pressed, and is not counted). A rigid motion is held if some held component of some held point
-moves: with the rigid-motion basis r_a (translations along, rotations about the coordinate axes, in
+Elasticity alone does not resist a rigid motion r (ε(r) = 0): (7) has a unique solution only if every r
+is held, by the Dirichlet groups and symmetry planes or, once pressed, by the foundation. What the supports
+leave free is found here; whether the foundation holds it is decided at the cold start
+(:mod:`nc_dolfinx.solver.settling`). A rigid motion is held by the supports if some held component of some
+held point moves: with the rigid-motion basis r_a (translations along, rotations about the coordinate axes, in
 coordinates centred on the body's bounding box and scaled by its size) the Gram matrix
 
     G_ab = Σ over held (point, component i) of r_a,i r_b,i
@@ -55,15 +56,26 @@ def gram_matrix(held_points, centre, scale, comm):
 def free_motions(gram):
     """A basis of G's null space (k, m), reduced so that each vector is one motion where it can be (the
     rotations first): the row-echelon form of its transpose."""
-    values, vectors = np.linalg.eigh(gram)
-    largest = max(float(values.max()), 0.0)
-    null = vectors[:, values <= NULL_TOLERANCE * largest] if largest > 0 else np.eye(len(gram))
-    if null.shape[1] == 0:
-        return null
-    k = len(gram)
+    return readable(null_space(gram))
+
+
+def null_space(matrix):
+    """An orthonormal basis (columns) of the null space of a symmetric positive semi-definite matrix: its
+    eigenvalues up to NULL_TOLERANCE times the largest (all of it for the zero matrix)."""
+    values, vectors = np.linalg.eigh(matrix)
+    largest = max(float(values.max()), 0.0) if len(values) else 0.0
+    return vectors[:, values <= NULL_TOLERANCE * largest] if largest > 0 else np.eye(len(matrix))
+
+
+def readable(motions):
+    """The same span of rigid motions (coefficients, (k, m)), reduced so that each vector is one motion
+    where it can be (the rotations first): the row-echelon form of its transpose."""
+    if motions.shape[1] == 0:
+        return motions
+    k = len(motions)
     translations = 2 if k == 3 else 3  # the basis holds the translations, then the rotations
     order = list(range(translations, k)) + list(range(translations))  # rotations first
-    rows = _row_echelon(null.T[:, order])
+    rows = _row_echelon(motions.T[:, order])
     reduced = np.zeros_like(rows)
     reduced[:, order] = rows
     return reduced.T
@@ -117,5 +129,9 @@ def describe(vector, centre, scale):
 
 def free_rigid_motions(held_points, centre, scale, comm):
     """The rigid motions the held (points, components) leave free, in words (empty: none)."""
-    null = free_motions(gram_matrix(held_points, centre, scale, comm))
-    return [describe(null[:, j], np.asarray(centre, dtype=float), scale) for j in range(null.shape[1])]
+    return describe_all(free_motions(gram_matrix(held_points, centre, scale, comm)), centre, scale)
+
+
+def describe_all(motions, centre, scale):
+    """Each column of ``motions`` (k, m) in words (:func:`describe`)."""
+    return [describe(motions[:, j], np.asarray(centre, dtype=float), scale) for j in range(motions.shape[1])]

@@ -96,7 +96,7 @@ KEYS = [
     Key("mesh.diagonal", "choice", "diagonal of the rectangle's cells", "right",
         ("left", "right", "crossed", "left_right", "right_left")),
     Key("mesh.dirichlet", "groups", "boundary groups (names or integer tags) of Γ_D: clamped (u = 0), or "
-        "held at `loads.u_D`", REQUIRED),
+        "held at `loads.u_D`; none when symmetry planes and the foundation hold the body", []),
     Key("mesh.contact", "groups", "boundary groups of Γ_C, on the foundation", REQUIRED),
     Key("mesh.neumann", "groups", "boundary groups of Γ_N with a traction g; a boundary facet in no group, "
         "or in a group in no role, is Γ_N with g = 0 (a group in no role is named in a warning)", []),

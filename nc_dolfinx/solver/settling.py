@@ -1,0 +1,141 @@
+"""A body that only the foundation holds along some rigid motions: its cold start, decided before Newton.
+
+Where the supports (Dirichlet components, symmetry planes) leave rigid motions free (:mod:`nc_dolfinx.
+physics.rigid`), only the foundation can hold them, and only once pressed: at u = 0 with g_0 ≥ 0 the law
+c_n (u_n − g_0)_+^{m_n} has no stiffness, so the Jacobian of (7) is singular along those motions and
+Newton has no first step. :func:`settle` lets the body settle *rigidly* onto the foundation first: with
+the free motions ρ_1 … ρ_m as P1 functions (exact: a rigid motion is linear) it minimises the energy Π of
+(7) over u_0 + Σ a_j ρ_j. Since a(·, ρ) = 0 for a rigid ρ, along them
+
+    E(a) = ∫_Γ_C c_n/(m_n+1) (u_n − g_0)_+^{m_n+1} − λ L(Σ a_j ρ_j),     u = u_0 + Σ a_j ρ_j,
+
+is convex, with gradient g_j = j_n(u, ρ_j) − λ L(ρ_j) (the residual of (7) along ρ_j) and Hessian
+H_jk = j_n'(u)(ρ_k, ρ_j). Three outcomes are refused, each naming the motions, before any Newton step:
+- the foundation does not move under them (∫_Γ_C c_n (ρ·ν)² = 0: sliding along a frictionless foundation,
+  or c_n = 0 where they move it): nothing holds them;
+- E decreases without bound along them (the loads pull the body off the foundation);
+- at the minimum H is singular along them (nothing presses the body onto the foundation: its position
+  along them is not determined, e.g. a body loaded by nothing but a prescribed displacement).
+Otherwise the settled u_0 + Σ a_j ρ_j, where the foundation has its stiffness, is Newton's initial guess.
+"""
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx.fem.petsc as fem_petsc
+from dolfinx import fem
+
+from ..errors import InputError
+from ..physics import forms as nc_forms, rigid
+
+SETTLED = 1e-3    # |g| at most this fraction of |λ L(ρ)|: settled enough for Newton to take over
+FARTHEST = 1e3    # a move of this many body sizes with E still decreasing: the loads pull the body off
+MAX_STEPS = 50
+HOLD = "hold it with mesh.dirichlet components (loads.u_D) or mesh.symmetry planes"
+
+
+def settle(u, fields, load_factor=1.0):
+    """Move ``u`` (in place) by the rigid motions in ``fields.free_motions`` to where the foundation holds
+    ``load_factor`` times the loads (see the module's docstring); returns their amplitudes. Raises
+    :class:`InputError` naming the motions the foundation cannot hold."""
+    along = _Motions(u, fields, load_factor)
+    along.refuse("the foundation does not move under it (a frictionless foundation holds only what moves "
+                 "it normally)", along.matrix(np.zeros(along.count), along.mass_action))
+    a = np.zeros(along.count)
+    target = SETTLED * np.linalg.norm(along.load)
+    for _ in range(MAX_STEPS):
+        g = along.gradient(a)
+        if np.linalg.norm(g) <= target:
+            break
+        a = _line_minimum(along, a, *_descent(along, a, g))
+    along.refuse("nothing presses the body onto the foundation", along.matrix(a, along.hessian_action))
+    along.at(a)
+    return a
+
+
+class _Motions:
+    """The free rigid motions as P1 functions, and (7) measured along them."""
+
+    def __init__(self, u, fields, load_factor):
+        self.u, V = u, u.function_space
+        self.free, self.centre, self.scale = fields.free_motions
+        self.count = self.free.shape[1]
+        bs = V.dofmap.index_map_bs
+        unit = rigid.rigid_motions((V.tabulate_dof_coordinates()[:, :bs] - self.centre) / self.scale)
+        self.modes = np.einsum("nki,km->mni", unit, self.free).reshape(self.count, -1)  # (m, dofs)
+        self.base = u.x.array.copy()
+        self.n_owned = V.dofmap.index_map.size_local * bs
+        pieces = nc_forms.normal_compliance_forms(u, fields)
+        self.direction = fem.Function(V)
+        self.j_n = fem.form(pieces.j_n)
+        self.hessian_action = fem.form(ufl.action(pieces.j_n_jacobian, self.direction))
+        self.mass_action = fem.form(ufl.action(pieces.c_n_mass, self.direction))
+        self.load = load_factor * self._along(fem.form(pieces.L))
+
+    def _along(self, vector_form):
+        """[F(ρ_j)] for an assembled vector form F: its owned entries against each motion, over all ranks."""
+        vec = fem_petsc.assemble_vector(vector_form)
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        local = self.modes[:, :self.n_owned] @ vec.array[:self.n_owned]
+        vec.destroy()
+        return self.u.function_space.mesh.comm.allreduce(local, MPI.SUM)
+
+    def at(self, a):
+        """u = u_0 + Σ a_j ρ_j."""
+        self.u.x.array[:] = self.base + a @ self.modes
+        return self
+
+    def gradient(self, a):
+        return self.at(a)._along(self.j_n) - self.load
+
+    def matrix(self, a, action):
+        """[ρ_jᵀ A ρ_k] at a, for the operator A whose action on ``self.direction`` is the form ``action``."""
+        self.at(a)
+        columns = []
+        for mode in self.modes:
+            self.direction.x.array[:] = mode
+            columns.append(self._along(action))
+        return np.array(columns)
+
+    def largest_move(self, d):
+        """The largest nodal displacement of the motion Σ d_j ρ_j (the same on every rank)."""
+        local = np.max(np.abs(d @ self.modes), initial=0.0)
+        return self.u.function_space.mesh.comm.allreduce(local, MPI.MAX)
+
+    def refuse(self, why, matrix):
+        """Raise naming the motions on which the positive semi-definite ``matrix`` vanishes, if any."""
+        unheld = rigid.readable(self.free @ rigid.null_space(matrix))
+        if unheld.shape[1]:
+            names = ", ".join(rigid.describe_all(unheld, self.centre, self.scale))
+            raise InputError(f"the body is free to move: {names}; {why}: {HOLD}")
+
+
+def _descent(along, a, g):
+    """Newton's direction where the foundation is pressed along every motion, else the steepest one."""
+    H = along.matrix(a, along.hessian_action)
+    try:
+        np.linalg.cholesky(H)
+        return -np.linalg.solve(H, g), 1.0
+    except np.linalg.LinAlgError:
+        d = -g / np.linalg.norm(g)
+        return d, 1e-3 * along.scale / along.largest_move(d)  # first try: a thousandth of the body's size
+
+
+def _line_minimum(along, a, d, first):
+    """The minimiser of the convex E along a + t d, t > 0 (``first``: the first t tried): bracketed by
+    doubling t until E's slope turns, then bisected to 1e-4. A slope still negative FARTHEST body sizes
+    away: the loads pull the body off along d."""
+    def slope(t):
+        return along.gradient(a + t * d) @ d
+    unit = along.largest_move(d)  # the largest nodal move for t = 1
+    low, high = 0.0, first
+    while slope(high) < 0:
+        low, high = high, 2 * high
+        if high * unit > FARTHEST * along.scale:
+            names = ", ".join(rigid.describe_all(rigid.readable(along.free @ d[:, None]), along.centre, along.scale))
+            raise InputError(f"the body is free to move: {names}; the loads pull it off the foundation: {HOLD}")
+    while high - low > 1e-4 * high:
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if slope(middle) < 0 else (low, middle)
+    return a + high * d

@@ -1,0 +1,80 @@
+"""A body that nothing but the foundation holds along some rigid motions (no Γ_D): the cold start settles
+it rigidly onto the foundation (nc_dolfinx.solver.settling), then Newton solves (7).
+
+A block resting on the foundation, cut by symmetry planes (which hold the tangential motions), pressed
+by a uniform pressure p on its top: the stress is uniaxial, σ = −p e_z (3D) or −p e_y (2D, plane strain),
+the strain uniform (Hooke's law inverted with sympy below), and the foundation's law gives the base's
+penetration d = (p / c_n)^{1/m_n} beyond the gap g_0. The exact u is linear, so u_h equals it at the
+nodes up to the solver's tolerance — for m_n = 1, 1.5 and 3 (whose law has no stiffness at all at a
+cold start), with and without a gap, in 2D and 3D.
+"""
+import numpy as np
+import pytest
+import sympy as sp
+from mpi4py import MPI
+
+import nc_dolfinx as nc
+from nc_dolfinx.errors import InputError
+
+E, NU, P, C_N = 1.0e3, 0.3, 10.0, 1.0e4
+
+
+def uniaxial_strain(dim):
+    """The uniform strain (ε_11, ε_22[, ε_33]) under σ = −P along the last axis, the others zero (plane
+    strain in 2D: ε_zz = 0), from Hooke's law σ = λ tr ε I + 2μ ε solved with sympy."""
+    lam, mu = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))
+    eps = sp.symbols(f"e0:{dim}")
+    stress = [lam * sum(eps) + 2 * mu * e for e in eps]  # the normal stresses (ε_zz = 0 in plane strain)
+    target = [0.0] * (dim - 1) + [-P]
+    solution = sp.solve([s - t for s, t in zip(stress, target)], eps, dict=True)[0]
+    return np.array([float(solution[e]) for e in eps])
+
+
+def test_uniaxial_strain_is_hookes():
+    """The strains above against the closed forms: plane strain ε_xx = ν(1+ν)p/E, ε_yy = −(1−ν²)p/E; 3D
+    ε_xx = ε_yy = νp/E, ε_zz = −p/E."""
+    np.testing.assert_allclose(uniaxial_strain(2), [NU * (1 + NU) * P / E, -(1 - NU**2) * P / E], rtol=1e-14)
+    np.testing.assert_allclose(uniaxial_strain(3), [NU * P / E, NU * P / E, -P / E], rtol=1e-14)
+
+
+def pressed_block(dim, m_n, gap):
+    corners = [[0, 0], [1, 0.5]] if dim == 2 else [[0, 0, 0], [1, 0.5, 0.5]]
+    top, bottom = ("top", "bottom")
+    data = {"mesh": {"rectangle" if dim == 2 else "box": corners, "cells": [6, 3] if dim == 2 else [3, 2, 2],
+                     "symmetry": ["left"] if dim == 2 else ["left", "front"], "contact": [bottom],
+                     "neumann": [top, "right"] + ([] if dim == 2 else ["back"])},
+            "material": {"E": E, "nu": NU},
+            "loads": {"g": {top: ["0"] * (dim - 1) + [str(-P)]}},
+            "contact": {"c_n": C_N, "m_n": m_n, "gap": gap}}
+    return nc.Problem.from_dict(data)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("m_n, gap", [(1.0, 0.0), (1.5, 0.0), (3.0, 0.0), (1.5, 0.05), (3.0, 0.05)])
+def test_a_block_resting_on_the_foundation(dim, m_n, gap):
+    problem = pressed_block(dim, m_n, gap)
+    solution = nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    V = solution.u.function_space
+    x = V.tabulate_dof_coordinates()[:, :dim]
+    exact = x * uniaxial_strain(dim)
+    exact[:, -1] -= gap + (P / C_N) ** (1 / m_n)  # the base sinks by g_0 + d
+    error = np.abs(solution.u.x.array.reshape(-1, dim) - exact).max()
+    assert MPI.COMM_WORLD.allreduce(error, MPI.MAX) <= 1e-8 * np.abs(exact).max()
+
+
+@pytest.mark.parametrize("change, expected", [
+    ({"symmetry": []}, "translation along x; the foundation does not move under it"),
+    ({"g": ["0", "10"]}, "translation along y; the loads pull it off the foundation"),
+    ({"g": ["1", "0"]}, "translation along y; nothing presses the body onto the foundation"),
+])
+def test_what_the_foundation_cannot_hold_is_named_before_newton(change, expected):
+    problem = pressed_block(2, 1.5, 0.0)
+    raw = problem.raw
+    if "symmetry" in change:
+        raw["mesh"]["symmetry"], raw["mesh"]["neumann"] = [], ["top", "right", "left"]
+    else:
+        raw["loads"]["g"] = {"top": change["g"]}
+    problem = nc.Problem.from_dict(raw)
+    with pytest.raises(InputError) as err:
+        nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    assert f"the body is free to move: {expected}" in str(err.value)
