@@ -218,6 +218,15 @@ def cell_space(msh, dim=1):
     return versions.cell_space_from_dofmap(msh, dim, dofmap)
 
 
+def global_bounds(comm, x):
+    """The smallest and largest coordinates of points ``x`` (n, dim) over all ranks (elementwise over the
+    coordinates: the pickling allreduce would compare whole arrays)."""
+    low, high = np.empty(x.shape[1]), np.empty(x.shape[1])
+    comm.Allreduce(x.min(axis=0) if len(x) else np.full(x.shape[1], np.inf), low, MPI.MIN)
+    comm.Allreduce(x.max(axis=0) if len(x) else np.full(x.shape[1], -np.inf), high, MPI.MAX)
+    return low, high
+
+
 def region_function(msh, values_of_owned_cells):
     """DG0 function of region ids from values on the owned cells (ghosts filled by scatter)."""
     region = fem.Function(cell_space(msh), name="region")

@@ -23,13 +23,13 @@ follows them (:mod:`.balance`).
 import weakref
 
 import numpy as np
-from mpi4py import MPI
 
 from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
 from .balance import IMBALANCE_LIMIT, imbalance, rebalance
-from .domain import UNTAGGED, Domain, cell_facet_groups, match_simplices, region_function, tag_from_cell_facets
+from .domain import (UNTAGGED, Domain, cell_facet_groups, global_bounds, match_simplices, region_function,
+                     tag_from_cell_facets)
 
 _MOVES = weakref.WeakKeyDictionary()  # rebalanced child mesh -> the Move that made it (for transfer)
 
@@ -132,7 +132,7 @@ def _plaza(domain, edges):
     exact = msh.geometry.x.copy()
     position = fem.Function(versions.p1_space(msh, (gdim,)))
     position.x.array.reshape(-1, gdim)[_dof_of_node(position.function_space)] = exact[:, :gdim]
-    msh.geometry.x[:, :gdim] += _tie_breaker(exact[:, :gdim], *_bounding_box(msh))
+    msh.geometry.x[:, :gdim] += _tie_breaker(exact[:, :gdim], *global_bounds(msh.comm, exact[:, :gdim]))
     try:
         child, parents = versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
         child_position = transfer(position, versions.p1_space(child, (gdim,)))
@@ -155,17 +155,6 @@ def _tie_breaker(x, low, high):
     phase = 2 * np.pi * (x - low) / extent
     dim = x.shape[1]
     return TIE_BREAKING_MOVE * extent * np.sin(phase @ _FREQUENCIES[:dim, :dim].T + np.arange(1, dim + 1))
-
-
-def _bounding_box(msh):
-    """The lowest and highest coordinates of the mesh's nodes (every rank's), (gdim,) each."""
-    x = msh.geometry.x[:, :msh.geometry.dim]
-    low, high = np.full(x.shape[1], np.inf), np.full(x.shape[1], -np.inf)
-    if len(x):
-        low, high = x.min(axis=0), x.max(axis=0)
-    msh.comm.Allreduce(MPI.IN_PLACE, low, op=MPI.MIN)
-    msh.comm.Allreduce(MPI.IN_PLACE, high, op=MPI.MAX)
-    return low, high
 
 
 def _dof_of_node(space):

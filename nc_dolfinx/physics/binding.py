@@ -19,7 +19,7 @@ from dolfinx import fem
 from .. import dolfinx_versions as versions
 from ..errors import InputError, brief_text
 from ..mesh import builtin, gmsh_io
-from ..mesh.domain import UNTAGGED, Domain
+from ..mesh.domain import UNTAGGED, Domain, global_bounds
 from ..problem.expressions import to_ufl, to_ufl_vector, values_at
 from ..problem.problem import check_exponent, check_reference, check_vector_sizes
 from ..problem.reading import check_file
@@ -284,17 +284,8 @@ def _check_rigid_motions_held(fields):
 def _bounding_box(domain):
     """The centre of the mesh's bounding box and half its largest side (over all ranks)."""
     msh = domain.mesh
-    low, high = _global_bounds(domain.comm, msh.geometry.x[:, :msh.geometry.dim])
+    low, high = global_bounds(domain.comm, msh.geometry.x[:, :msh.geometry.dim])
     return 0.5 * (low + high), 0.5 * float(np.max(high - low))
-
-
-def _global_bounds(comm, x):
-    """The smallest and largest coordinates of points ``x`` (n, dim) over all ranks (elementwise over the
-    coordinates: the pickling allreduce would compare whole arrays)."""
-    low, high = np.empty(x.shape[1]), np.empty(x.shape[1])
-    comm.Allreduce(x.min(axis=0) if len(x) else np.full(x.shape[1], np.inf), low, MPI.MIN)
-    comm.Allreduce(x.max(axis=0) if len(x) else np.full(x.shape[1], -np.inf), high, MPI.MAX)
-    return low, high
 
 
 def _facet_counts(domain):
@@ -316,7 +307,7 @@ def _symmetry_axis(domain, group_id, name):
     tags = domain.facet_tags
     facets = tags.indices[tags.values == group_id]
     nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
-    low, high = _global_bounds(domain.comm, msh.geometry.x[nodes.ravel(), :msh.geometry.dim])
+    low, high = global_bounds(domain.comm, msh.geometry.x[nodes.ravel(), :msh.geometry.dim])
     extent = domain.comm.allreduce(float(np.ptp(msh.geometry.x, axis=0).max()) if len(msh.geometry.x) else 0.0,
                                    MPI.MAX)
     flat = np.flatnonzero(high - low <= 1e-10 * extent)
