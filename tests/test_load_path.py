@@ -123,3 +123,29 @@ def test_a_failing_step_keeps_the_finished_ones_and_is_named(tmp_path):
     assert [(r["step"], r["increment"]) for r in history(out)] == [(1, 1)]
     pvd = ET.parse(out / "solution.pvd").getroot()
     assert [d.get("file") for d in pvd.iter("DataSet")] == ["levels/level_00.pvtu"]
+
+
+BAR = {"parameters": {"delta": 0.0},
+       "mesh": {"rectangle": [[0.0, 0.0], [2.0, 1.0]], "cells": [8, 4], "dirichlet": ["left", "right"],
+                "symmetry": ["bottom"], "contact": ["top"]},
+       "material": {"E": 1.0e3, "nu": 0.3},
+       "loads": {"u_D": {"left": ["0", "free"], "right": ["delta", "free"]}},
+       "contact": {"c_n": 1.0e3, "m_n": 1.0, "gap": 1.0},
+       "steps": [{"set": {"delta": 0.01}}, {"set": {"delta": 0.03}, "increments": 2}]}
+
+
+def test_a_force_displacement_curve_along_the_path():
+    """A bar in uniaxial plane-strain stress pulled by its right end u_x = δ: the reaction there is
+    E/(1 − ν²) δ/L · H at every state (the bar of tests/test_prescribed.py), the left one its opposite. The
+    path starts from δ = 0, an unloaded problem, which is not solved: its steps are."""
+    result = nc.adapt(nc.Problem.from_dict(BAR), nc.AdaptSettings(refine="none"))
+    stiffness = 1.0e3 / (1 - 0.3**2) / 2.0 * 1.0
+    for row, delta in zip(result.history, [0.01, 0.02, 0.03]):
+        assert row["reaction_right"][0] == pytest.approx(stiffness * delta, rel=1e-10)
+        assert row["reaction_left"][0] == pytest.approx(-stiffness * delta, rel=1e-10)
+
+
+def test_a_step_that_leaves_the_problem_unloaded_is_refused():
+    raw = dict(BAR, steps=[{"set": {"delta": 0.01}}, {"set": {"delta": 0.0}}])
+    with pytest.raises(nc.InputError, match=r"steps\[2\] leads to a bad problem: the problem has no load"):
+        nc.Problem.from_dict(raw)
