@@ -62,7 +62,7 @@ SPOOF = "bogus\nnc_dolfinx: error: spoofed second line"  # printed raw, the erro
 SUPPRESS = [getattr(HealthCheck, name) for name in ("too_slow", "filter_too_much", "data_too_large",
                                                     "large_base_example") if hasattr(HealthCheck, name)]
 WILDCARD_NAMES = {"parameters": "pfuzz", "material.regions": "soft", "loads.g": "top", "loads.u_D": "left",
-                  "solver.petsc_options": "snes_rtol"}
+                  "solver.petsc_options": "snes_rtol", "steps.set": "pfuzz"}
 
 
 @dataclass(frozen=True)
@@ -343,7 +343,15 @@ def wrong_type_inputs(draw):
         problem["loads"]["g"] = {}
     if path == "mesh.file" or path in ("mesh.rectangle", "mesh.box", "mesh.cells"):
         pass  # the base's own mesh stays: two kinds of mesh clash, or the key is replaced
-    _set(problem, path, value)
+    if path.startswith("steps."):  # [[steps]] is an array of tables: one step, setting the parameter pfuzz
+        problem.setdefault("parameters", {})["pfuzz"] = 1.0
+        step = {"set": {"pfuzz": 2.0}}
+        step["set" if path == "steps.set.pfuzz" else "increments"] = \
+            {"pfuzz": value} if path == "steps.set.pfuzz" else value
+        problem["steps"] = [step]
+        path = path.replace("steps.", "steps[1].", 1)
+    else:
+        _set(problem, path, value)
     words = {path, path.split(".")[-1]}
     if value in ("nosuch", ["nosuch"]):
         words.add("nosuch")
