@@ -279,6 +279,8 @@ def _check_rigid_motions_held(fields):
     free = rigid.free_motions(rigid.gram_matrix(held, centre, scale, domain.comm))
     if free.shape[1]:
         fields.free_motions = (free, centre, scale)
+        fields.notes.append(f"no support holds {', '.join(rigid.describe_all(free, centre, scale))}: the foundation "
+                            "does (the body settles onto it before Newton, nc_dolfinx.solver.settling)")
 
 
 def _bounding_box(domain):
