@@ -125,8 +125,9 @@ class Fields:
 
 def bind(problem, domain):
     """The problem's data on ``domain`` as :class:`Fields`: the coefficients of (7) and the measures of
-    Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, that the supports hold every
-    rigid motion (before any solve: :mod:`.rigid`), the dimension of every vector, m_n in 3D, the
+    Γ_D, Γ_N and Γ_C (§2). Checks groups, roles, Γ_D, Γ_C, symmetry planes, finds the rigid motions the
+    supports leave free (:mod:`.rigid`; the cold start decides whether the foundation holds them:
+    :mod:`nc_dolfinx.solver.settling`), checks the dimension of every vector, m_n in 3D, the
     reference's dimension, and that every expression is finite where it is used (u_D on its group, c_n and
     g_0 also >= 0 on Γ_C); raises :class:`InputError` for each. Boundary groups of the mesh in no
     role are traction-free: ``Fields.warnings`` says so."""
