@@ -44,11 +44,14 @@ class Solution:
         return self.fields.domain
 
 
-def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, preconditioner_matrix=None):
+def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, preconditioner_matrix=None,
+          previous_state=None):
     """Solve (7) for ``problem`` on ``domain``.
 
     ``initial``: a P1 displacement on this mesh or on its parent mesh (transferred exactly), the Newton
-    initial guess (default: zero). ``petsc_options``: PETSc options (no dash) over the problem's
+    initial guess (default: zero). ``previous_state``: with friction, the displacement at the previous load
+    state (on this mesh or its parent), from which the slip increment Δu_t is measured (default: zero, the
+    unloaded body); with ``load_steps`` > 1 each increment moves it on. ``petsc_options``: PETSc options (no dash) over the problem's
     ``[solver] petsc_options``. ``load_steps``, ``preconditioner_matrix``: over the problem's [solver].
     Raises InputError if SNES does not converge.
     """
@@ -57,12 +60,11 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
     if initial is None:
         u = fem.Function(V)
-    elif initial.function_space.mesh is domain.mesh:
-        u = fem.Function(V)
-        u.x.array[:] = initial.x.array
     else:
-        u = refinement.transfer(initial, V)
+        u = _on_mesh(initial, V)
     u.name = "displacement"
+    if fields.friction is not None and previous_state is not None:
+        fields.friction.previous.x.array[:] = _on_mesh(previous_state, V).x.array
     steps = load_steps or settings["load_steps"]
     if initial is None and fields.free_motions is not None:  # held by the foundation alone along them
         settle(u, fields, 1.0 / steps)
@@ -74,6 +76,15 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     finally:
         solver.destroy()
     return Solution(u, fields, stats)
+
+
+def _on_mesh(function, V):
+    """A P1 displacement on V's mesh or on its parent mesh, as a Function of V (transferred exactly)."""
+    if function.function_space.mesh is V.mesh:
+        copy = fem.Function(V)
+        copy.x.array[:] = function.x.array
+        return copy
+    return refinement.transfer(function, V)
 
 
 @dataclass(frozen=True)
@@ -208,6 +219,7 @@ class _Loop:
     def __init__(self, settings, petsc_options, on_level, times):
         self.settings, self.petsc_options, self.on_level, self.times = settings, petsc_options, on_level, times
         self.history, self.previous = [], None
+        self.state_start = None  # with friction: u at the previous load state, on the current mesh
 
     def step(self, state, domain):
         """Solve one state; after a step's last increment, go on adaptively per the settings. Returns the
@@ -216,7 +228,8 @@ class _Loop:
         for number_in_step in range(self.settings.levels if state.ends_step else 1):
             number = len(self.history)
             t = time.perf_counter()
-            solution = solve(state.problem, domain, self.previous, self.petsc_options, None if number == 0 else 1)
+            solution = solve(state.problem, domain, self.previous, self.petsc_options, None if number == 0 else 1,
+                             previous_state=self.state_start)
             self.times["solve"] = time.perf_counter() - t
             t = time.perf_counter()
             est = indicators.estimate(solution.u, solution.fields, **estimator_options(state.problem))
@@ -237,6 +250,8 @@ class _Loop:
             level = Level(number, solution, est, row, marked, stop, last_of_state=bool(stop) or not state.ends_step)
             self._record(level)
             self.previous, self.times = solution.u, {}
+            if solution.fields.friction is not None:  # the next state slips from here; a finer level from the same
+                self.state_start = solution.u if level.last_of_state else solution.fields.friction.previous
             if stop or not state.ends_step:
                 return domain, level
             t = time.perf_counter()
@@ -260,6 +275,8 @@ def _row(number, domain, solution, est):
            "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
            "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix,
            "recoveries": stats.recoveries}
+    if solution.fields.friction is not None:
+        row["friction_passes"] = stats.friction_passes
     row.update(quantities.solution_quantities(solution.u, solution.fields))
     row.update(quantities.errors(solution.u, solution.fields))
     if "h1_error" in row:  # (no index when u_h is exact: a linear u, say)

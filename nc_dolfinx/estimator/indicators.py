@@ -6,7 +6,8 @@ for P1 triangles (2D, plane strain) and tetrahedra (3D) alike; "facet" is an edg
            J from (15): J = [σ(u_h) ν_F]_F on interior facets (the full jump; each facet counts for both
            cells), J = σ(u_h) ν − g_F on Neumann facets, g_F = mean of g over F; F_K^S: symmetry facets
            (and rollers: the free components of σ(u_h)ν)
-    η_3K = h_K^{1/2} (Σ_{F ∈ F_K^C} ‖σ_t(u_h)‖_F²)^{1/2},       σ_t = σν − σ_n ν (a vector)
+    η_3K = h_K^{1/2} (Σ_{F ∈ F_K^C} ‖σ_t(u_h) − s_t(u_h)‖_F²)^{1/2},   σ_t = σν − σ_n ν (a vector); s_t the
+           tangential traction of the friction law (:mod:`nc_dolfinx.physics.friction`), 0 without friction
     η_4K = h_K^{1/2} (Σ_{F ∈ F_K^C} ‖c_n (u_hn − g_0)_+^{m_n} + σ_n(u_h)‖_F²)^{1/2}
     η_K  = (Σ_i η_iK²)^{1/2},  η = (Σ_K η_K²)^{1/2}
     ζ_K  = (h_K² Σ_{K' ⊂ ω_K} ‖f − f_K'‖_K'² + Σ_{F ∈ F_K^N} h_F ‖g − g_F‖_F²)^{1/2},  ζ = (Σ_K ζ_K²)^{1/2}
@@ -66,7 +67,7 @@ from dolfinx import fem
 
 from .. import dolfinx_versions as versions
 from ..mesh.domain import cell_space
-from ..physics import elasticity, forms
+from ..physics import elasticity, forms, friction
 from .geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
 from .kink import law_residual_squared
 
@@ -222,7 +223,9 @@ def _facet_terms(u, fields, contact_degree, split_kinks, varying):
         law_squared = (forms.contact_pressure(u, fields, n) + elasticity.normal_stress(s, n)) ** 2
     eta_2, eta_3, eta_4 = 0, 1, 2  # components of wv
     dC = forms.contact_measure(fields, contact_degree)
-    form = (ufl.inner(sigma_t, sigma_t) * wv[eta_3] + law_squared * wv[eta_4]) * dC
+    tangential_residual = sigma_t if fields.friction is None else \
+        sigma_t - friction.tangential_traction(u, forms.penetration(u, fields, n), fields.friction)
+    form = (ufl.inner(tangential_residual, tangential_residual) * wv[eta_3] + law_squared * wv[eta_4]) * dC
     symmetry = tuple(fields.symmetry_axes)
     if symmetry:
         form += ufl.inner(sigma_t, sigma_t) * wv[eta_2] * fields.ds(symmetry)

@@ -24,7 +24,7 @@ from ..problem.expressions import to_ufl, to_ufl_vector, values_at
 from ..problem.problem import check_exponent, check_reference, check_vector_sizes
 from ..problem.reading import check_file
 from ..problem.schema import FREE, ROLES
-from . import elasticity, rigid
+from . import elasticity, friction, rigid
 
 
 @dataclass
@@ -49,6 +49,7 @@ class Fields:
     u_D: dict = field(default_factory=dict)  # Dirichlet group id -> UFL u_D per component (None: free); absent: clamped
     boundary_values: list = field(default_factory=list)  # (Function, fem.Expression) of each prescribed condition
     free_motions: tuple = None  # rigid motions only the foundation can hold: (coefficients (k, m), centre, scale)
+    friction: object = None  # friction.FrictionLaw on Γ_C, or None: frictionless
     notes: list = field(default_factory=list)          # remarks for the summary (not errors)
     warnings: list = field(default_factory=list)       # what the user may not have meant (see bind)
 
@@ -159,6 +160,8 @@ def bind(problem, domain):
     fields = Fields(domain, lmbda, mu, f, g, to_ufl(contact["c_n"], msh, params),
                     fem.Constant(msh, PETSc.ScalarType(contact["m_n"])), to_ufl(contact["gap"], msh, params),
                     u_exact, ids, ds)
+    if problem.frictional:
+        fields.friction = _friction_law(problem, fields)
     fields.symmetry_axes = {i: _symmetry_axis(domain, i, _name(domain, i)) for i in ids["symmetry"]
                             if counts.get(i, 0)}
     fields.u_D = _prescribed_displacements(problem, domain, ids["dirichlet"])
@@ -176,6 +179,20 @@ def bind(problem, domain):
                             "proofs, is guaranteed only for m_n <= 2 (H^1/2(Γ_C) ⊂ L⁴); the law is well "
                             "posed up to m_n = 3")
     return fields
+
+
+def _friction_law(problem, fields):
+    """The friction law of ``contact`` on this mesh (:mod:`.friction`): c_t = μ c_n and m_t = m_n from
+    ``friction``, or ``c_t``, ``m_t`` as given; u_prev = 0 (the unloaded body) until the solver sets it."""
+    contact, msh, params = problem.values["contact"], fields.domain.mesh, problem.parameters
+    V = versions.p1_space(msh, (fields.dim,))
+    if contact["friction"] is not None:
+        c_t, m_t = to_ufl(contact["friction"], msh, params) * fields.c_n, fields.m_n
+    else:
+        c_t, m_t = to_ufl(contact["c_t"], msh, params), fem.Constant(msh, PETSc.ScalarType(contact["m_t"]))
+    epsilon = fem.Constant(msh, PETSc.ScalarType(contact["slip_regularisation"]))
+    return friction.FrictionLaw(c_t, m_t, epsilon, fem.Function(V, name="previous_displacement"), fem.Function(V),
+                                friction.vertex_normal(V, fields.ds_of("contact")))
 
 
 def _name(domain, group_id):
@@ -335,7 +352,8 @@ def _check_finite_on_mesh(problem, domain, ids, listed_neumann):
         checks += [(f"loads.g.{group}[{i}]", text, (_table_group_id(domain, group),)) for i, text in enumerate(vector)]
     for group, (key, vector) in _u_D_by_group(problem, domain, ids["dirichlet"]).items():
         checks += [(f"{key}[{i}]", text, (group,)) for i, text in enumerate(vector) if text != FREE]
-    checks += [(f"contact.{name}", contact[name], ids["contact"]) for name in ("c_n", "gap")]
+    checks += [(f"contact.{name}", contact[name], ids["contact"]) for name in ("c_n", "gap", "friction", "c_t")
+               if contact[name] is not None]
     for key, text, groups in checks:
         x = _vertices(domain, groups)
         value = values_at(text, x, params)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import ufl
 
 from ..problem.expressions import positive_part
-from . import elasticity
+from . import elasticity, friction
 
 # Quadrature degree on Γ_C: the integrands contain (u_n − g_0)_+ whose kink may lie inside a facet.
 CONTACT_QUADRATURE_DEGREE = 8
@@ -62,6 +62,24 @@ class NonlinearForms:
     # and these forms again with c_n replaced by scale·c_n (``scale`` a fem.Constant)
     c_n_mass: ufl.Form = None
     with_c_n_scale: object = None
+    # With friction (fields.friction, :mod:`.friction`): j_t(u, v) = −∫_Γ_C σ_t(u)·v_t with the bound F(ū),
+    # ε(ū) of the iterate ``frozen`` ū, the derivative of ∫_Γ_C F̄ ψ_ε̄(Δu_t) (added to contact_energy), and
+    # u at the previous load state (Δu_t = (u − previous)_t). The solver moves ū to u until they agree
+    # (the fixed point), and ``previous`` on between its load increments.
+    j_t: ufl.Form = None
+    j_t_jacobian: ufl.Form = None
+    previous: object = None
+    frozen: object = None
+
+    @property
+    def contact_residual(self):
+        """The Γ_C part of the residual of (7): j_n(u, v), plus j_t(u, v) with friction."""
+        return self.j_n if self.j_t is None else self.j_n + self.j_t
+
+    @property
+    def contact_jacobian(self):
+        """Its Gateaux derivative in u (not symmetric with friction)."""
+        return self.j_n_jacobian if self.j_t is None else self.j_n_jacobian + self.j_t_jacobian
 
 
 def normal_compliance_forms(u, fields, c_n_scale=None):
@@ -80,8 +98,15 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
     m = fields.m_n
     contact_energy = c_n / (m + 1) * penetration(u, fields, n) ** (m + 1) * dC
     pieces = NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
+    if fields.friction is not None:  # the frozen bound's inner problem (see physics.friction)
+        law = fields.friction
+        frictional_energy = friction.dissipation(u, penetration(law.frozen, fields, n), law) * dC
+        pieces.contact_energy = pieces.contact_energy + frictional_energy
+        pieces.j_t = ufl.derivative(frictional_energy, u, v)
+        pieces.j_t_jacobian = ufl.derivative(pieces.j_t, u, du)
+        pieces.previous, pieces.frozen = law.previous, law.frozen
     mass = c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC
-    if float(m.value) == 1.0:  # (the law is linear where in contact: see NonlinearForms)
+    if float(m.value) == 1.0 and pieces.j_t is None:  # (the law is linear where in contact: see NonlinearForms)
         pieces.bilateral_jacobian = mass
         pieces.gap_load = c_n * fields.gap * normal_displacement(v, n) * dC
         pieces.separation = positive_part(fields.gap - normal_displacement(u, n)) * dC

@@ -10,7 +10,7 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
 from .. import dolfinx_versions as versions
-from . import elasticity, forms
+from . import elasticity, forms, friction
 
 ERROR_DEGREE = 8
 
@@ -41,6 +41,7 @@ def solution_quantities(u, fields):
     pressure = contact_projection(p, fields, "contact_pressure")
     max_pressure = comm.allreduce(float(np.max(pressure.x.array[:n_owned], initial=0.0)), MPI.MAX)
     applied, supports = support_forces(u, fields)
+    frictional = friction_quantities(u, fields) if fields.friction is not None else {}
     return {
         "max_contact_pressure": max_pressure,
         "elastic_energy": integrate(forms.elastic_energy(u, fields), comm),
@@ -52,8 +53,33 @@ def solution_quantities(u, fields):
         "max_penetration": max_penetration,
         "applied_load": applied,
         **{f"reaction_{name}": force for name, force in supports.items()},
-        "force_balance": _balance([applied, force, *supports.values()]),
+        **frictional,
+        "force_balance": _balance([applied, force, *supports.values(), *([frictional["friction_force"]] if frictional else [])]),
     }
+
+
+def friction_quantities(u, fields):
+    """With friction (:mod:`.friction`): ``friction_force`` ∫_Γ_C s_t, the tangential force the foundation
+    exerts on the body (s_t the law's tangential traction); ``slip_length``/``slip_area`` and
+    ``stick_length``/``stick_area``, the measures of the parts of the contact zone {p > 0} where the slip
+    increment exceeds the regularisation's slip length ε_r (u_n − g_0)_+ (there |s_t| > F/√2) and where it
+    does not (as ε_r → 0 they tend to Coulomb's slip and stick zones); ``max_slip`` the largest nodal |Δu_t|
+    (a lumped projection on Γ_C)."""
+    comm, law = fields.domain.comm, fields.friction
+    n = ufl.FacetNormal(fields.domain.mesh)
+    dC = forms.contact_measure(fields)
+    penetration = forms.penetration(u, fields, n)
+    traction = friction.tangential_traction(u, penetration, law)
+    slip = friction.slip_increment(u, law)
+    slipping = ufl.conditional(ufl.gt(ufl.dot(slip, slip), (law.epsilon * penetration) ** 2), 1.0, 0.0)
+    in_contact = ufl.conditional(ufl.gt(penetration, 0), 1.0, 0.0)
+    measure = "length" if fields.dim == 2 else "area"
+    slip_size = contact_projection(ufl.sqrt(ufl.dot(slip, slip)), fields, "slip")
+    n_owned = slip_size.function_space.dofmap.index_map.size_local
+    return {"friction_force": [integrate(traction[i] * dC, comm) for i in range(fields.dim)],
+            f"slip_{measure}": integrate(in_contact * slipping * dC, comm),
+            f"stick_{measure}": integrate(in_contact * (1 - slipping) * dC, comm),
+            "max_slip": comm.allreduce(float(np.max(slip_size.x.array[:n_owned], initial=0.0)), MPI.MAX)}
 
 
 def support_forces(u, fields):
@@ -71,7 +97,7 @@ def support_forces(u, fields):
     V, msh = u.function_space, fields.domain.mesh
     pieces = forms.normal_compliance_forms(u, fields)
     bs, n_owned = V.dofmap.index_map_bs, V.dofmap.index_map.size_local
-    vectors = [fem_petsc.assemble_vector(fem.form(form)) for form in (pieces.L, ufl.action(pieces.a, u) + pieces.j_n)]
+    vectors = [fem_petsc.assemble_vector(fem.form(form)) for form in (pieces.L, ufl.action(pieces.a, u) + pieces.contact_residual)]
     load, internal = (_owned_blocks(vec, n_owned, bs) for vec in vectors)
     r = internal - load  # (L assembled once, for both)
     applied = [float(x) for x in msh.comm.allreduce(load.sum(axis=0), MPI.SUM)]

@@ -88,6 +88,11 @@ class Problem:
         """The ``[parameters]`` table: named numbers usable in every expression."""
         return self.values["parameters"]
 
+    @property
+    def frictional(self):
+        """Whether Γ_C has friction (``contact.friction`` or ``contact.c_t`` given, μ = 0 included)."""
+        return is_frictional(self.values["contact"], self.given)
+
     def at_parameters(self, values):
         """This problem with the parameters ``values`` ({name: number}) set, their definitions replaced,
         and without its load path: one state of the path, validated again."""
@@ -211,11 +216,36 @@ def _check_consistency(values, given):
             raise InputError(f"contact.{key} must be >= 0, got {value}")
     if dim == 3:
         check_exponent(contact["m_n"], 3)
+    _check_friction(contact, given, values["parameters"])
 
     reference = values["reference"]
     if reference["hertz"] and reference["radius"] is None:
         raise InputError("reference.hertz needs reference.radius")
     check_reference(values, dim)
+
+
+def _check_friction(contact, given, parameters):
+    """Friction is given as Coulomb's μ (``friction``) or as the bound c_t (u_n − g_0)_+^m_t, not both."""
+    if "contact.friction" in given and ("contact.c_t" in given or "contact.m_t" in given):
+        raise InputError("give contact.friction (Coulomb: c_t = μ c_n, m_t = m_n) or contact.c_t with "
+                         "contact.m_t, not both")
+    if ("contact.c_t" in given) != ("contact.m_t" in given):
+        missing = "m_t" if "contact.c_t" in given else "c_t"
+        raise InputError(f"contact.{missing} is missing: the friction bound c_t (u_n − g_0)_+^m_t needs both "
+                         "contact.c_t and contact.m_t")
+    if "contact.slip_regularisation" in given and not is_frictional(contact, given):
+        raise InputError("contact.slip_regularisation has no effect without friction (contact.friction or "
+                         "contact.c_t)")
+    for key in ("friction", "c_t"):
+        value = contact[key]
+        if value is not None and not (isinstance(value, str) and uses_coordinates(value)) \
+                and to_float(value, parameters) < 0:
+            raise InputError(f"contact.{key} must be >= 0, got {value}")
+
+
+def is_frictional(contact, given):
+    """Whether the problem has friction on Γ_C (``contact.friction`` or ``contact.c_t`` given; μ = 0 included)."""
+    return "contact.friction" in given or "contact.c_t" in given
 
 
 def check_group_table(table, key, role, mesh):

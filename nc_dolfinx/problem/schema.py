@@ -125,6 +125,13 @@ KEYS = [
         "(a number or an expression of the coordinates)", REQUIRED),
     Key("contact.m_n", "number", "exponent m_n ≥ 1 of the law (≤ 3 in 3D)", REQUIRED, check=_at_least_one),
     Key("contact.gap", "expression", "initial normal gap g_0 ≥ 0 (0: the paper's setting)", 0.0),
+    Key("contact.friction", "expression", "Coulomb's friction coefficient μ ≥ 0 on Γ_C: |σ_t| ≤ μ c_n "
+        "(u_n − g_0)_+^m_n (default: frictionless)"),
+    Key("contact.c_t", "expression", "the friction bound's coefficient c_t ≥ 0 in |σ_t| ≤ c_t (u_n − g_0)_+^m_t, "
+        "instead of `friction` (needs `m_t`)"),
+    Key("contact.m_t", "number", "the friction bound's exponent m_t ≥ 1 (with `c_t`)", check=_at_least_one),
+    Key("contact.slip_regularisation", "number", "ε_r > 0 of the regularised friction law: the slip length "
+        "below which the body sticks is ε_r (u_n − g_0)_+", 1e-3, check=_positive),
     # [exact]
     Key("exact.u", "vector", "exact displacement: errors and effectivity indices are reported"),
     # [adapt]

@@ -47,6 +47,7 @@ class SolveStats:
     pc_setups: int = 0              # times the preconditioning matrix was (re)built
     recoveries: str = ""            # fallbacks taken after a failed SNES solve, e.g. "refresh,continuation"
     pc_type: str = ""               # the preconditioner in force (cholesky, gamg, hypre, or the user's)
+    friction_passes: int = 0        # passes of the fixed point on the friction bound (0: no friction)
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
@@ -166,7 +167,7 @@ class NonlinearSolver(Recoveries):
 
     def _configure(self, matrix):
         matrix.setNearNullSpace(self.near_nullspace)
-        matrix.setOption(PETSc.Mat.Option.SPD, True)  # K + j_n'(u): symmetric positive definite
+        matrix.setOption(PETSc.Mat.Option.SPD, True)  # K + j_n'(u) (+ j_t'(u), frozen bound): SPD
 
     def _copy_of_K(self):
         matrix = self.K.duplicate(copy=True)
@@ -197,9 +198,11 @@ class NonlinearSolver(Recoveries):
         self.work, self.trial, self.predicted = self.K.createVecRight(), versions.petsc_vec(self.u).copy(), self.K.createVecRight()
 
     def _use_contact_forms(self, forms):
-        """Γ_C's forms of (7) (``forms``, or the c_n continuation's scaled ones), compiled: j_n, its Jacobian
-        with the kinks closed, the contact energy; the bilateral forms are compiled when used."""
-        self.j_n, self.j_n_jacobian = fem.form(forms.j_n), fem.form(closed_jacobian(forms.j_n_jacobian))
+        """Γ_C's forms of (7) (``forms``, or the c_n continuation's scaled ones), compiled: j_n (+ j_t with
+        friction), its Jacobian with the kinks closed, the contact energy; the bilateral forms are compiled
+        when used."""
+        self.j_n = fem.form(forms.contact_residual)
+        self.j_n_jacobian = fem.form(closed_jacobian(forms.contact_jacobian))
         self.contact_energy = fem.form(forms.contact_energy)
         self.bilateral = (forms.bilateral_jacobian, forms.gap_load, forms.separation)
 
@@ -722,6 +725,32 @@ class NonlinearSolver(Recoveries):
         finally:
             start.destroy()
 
+    def _copy_into(self, x, function):
+        """A Function of u's space set to the iterate x (ghosts included)."""
+        self._update(x)
+        function.x.array[:] = self.u.x.array
+
+    def _fixed_point(self, x, stats, factor):
+        """With friction: the fixed point on the friction bound (:mod:`nc_dolfinx.physics.friction`). Each pass
+        solves the convex problem with the bound F(ū), ε(ū) of ū = x frozen, then sets ū = x, until the
+        residual with x's own bound meets the first pass's target (or lies within its round-off). Returns the
+        fallbacks used."""
+        used, limit = [], int(float(self.options["friction_passes"]))
+        for passes in range(1, limit + 1):
+            self._copy_into(x, self.forms.frozen)
+            used += self._solve_load_step(x, stats, factor)
+            target = self.target if passes == 1 else target
+            self._copy_into(x, self.forms.frozen)
+            stats.friction_passes += 1
+            self._residual(self.snes, x, self.b)
+            self.target = target
+            if self.b.norm() <= target or self._residual_within_roundoff(x):
+                return used
+        raise InputError(f"the fixed point on the friction bound did not converge in {limit} passes (‖F‖ = "
+                         f"{self.b.norm():.3g} > {target:.3g}): the friction coefficient may be too large for "
+                         "a unique solution; try smaller increments ([[steps]] increments, --load-steps) or "
+                         "-friction_passes")
+
     def solve(self, load_steps=1):
         """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""
         stats, start = SolveStats(), time.perf_counter()
@@ -731,8 +760,11 @@ class NonlinearSolver(Recoveries):
         try:
             for step in range(1, load_steps + 1):
                 self.load_factor = step / load_steps
+                if step > 1 and self.forms.previous is not None:  # the slip of this increment, not the last's
+                    self._copy_into(x, self.forms.previous)
                 try:
-                    recoveries += self._solve_load_step(x, stats, 1.0 / load_steps)
+                    solve_increment = self._solve_load_step if self.forms.frozen is None else self._fixed_point
+                    recoveries += solve_increment(x, stats, 1.0 / load_steps)
                 except InputError as err:
                     where = f" in load step {step}/{load_steps}" if load_steps > 1 else ""
                     raise InputError(str(err).replace(" (fallbacks", where + " (fallbacks", 1)) from None

@@ -1,0 +1,116 @@
+"""Coulomb friction with normal compliance on Γ_C (Martins & Oden 1987; Klarbring, Mikelić & Shillor 1988),
+regularised, in UFL for 2D and 3D.
+
+On Γ_C, with the pressure p = c_n (u_n − g_0)_+^{m_n} of the law (4) and the slip increment Δu_t over the
+load increment (the tangential part of u − u_prev, u_prev the previous load state), Coulomb's law with
+normal compliance reads
+
+    |σ_t| ≤ F,   F = c_t (u_n − g_0)_+^{m_t}            (Coulomb: c_t = μ c_n, m_t = m_n, F = μ p)
+    σ_t = −F Δu_t / |Δu_t|   where the body slips (Δu_t ≠ 0),   |σ_t| < F where it sticks (Δu_t = 0).
+
+The regularisation solved here is the tangential penalty (an elastic pre-slip, as in Wriggers' and
+Laursen's books):
+
+    σ_t = −F Δu_t / max(|Δu_t|, ε),   ε = ε_r (u_n − g_0)_+,   ε_r = ``contact.slip_regularisation``:
+
+a stiff tangential spring F/ε where |Δu_t| < ε (stick), Coulomb's law itself beyond (slip). Why this one:
+it is piecewise smooth with one kink, like (·)_+ in the normal law, and it is the gradient in Δu_t of the
+convex Huber function F ψ_ε(Δu_t), ψ_ε(s) = |s|²/(2ε) (|s| ≤ ε), |s| − ε/2 (beyond); the smooth
+alternative F Δu_t/(|Δu_t|² + ε²)^{1/2} is a sigmoid on which Newton overshoots. Why ε ∝ (u_n − g_0)_+: the
+stick spring F/ε = c_t (u_n − g_0)_+^{m_t − 1}/ε_r then stands to the normal one, c_n m_n (u_n −
+g_0)_+^{m_n − 1}, as μ/(ε_r m_n) in Coulomb's case, whatever the units, loads or foundation: ε_r is a
+dimensionless pre-slip (in units of the penetration) and one default serves every problem; as ε_r → 0 the
+law tends to Coulomb's.
+
+How it is solved: a fixed point on the friction bound (the scheme behind the existence proofs of Klarbring,
+Mikelić & Shillor and of Andersson). With F̄ = F(ū), ε̄ = ε(ū) frozen at an iterate ū, the increment minimises
+the convex, C¹ energy
+
+    Π(u) + ∫_Γ_C F̄ ψ_ε̄(Δu_t(u)),
+
+whose gradient is (7) plus j_t(u, v) = −∫_Γ_C σ_t(u) · v_t with the frozen bound: the solver of (7) (SPD
+Jacobian, energy line search) solves it unchanged; then ū = u and again, until the residual with the bound
+of u itself meets the solver's tolerance (:mod:`nc_dolfinx.solver.newton`). It contracts for small enough
+μ (the uniqueness condition of those proofs); the first pass from u = 0 is the frictionless solve (F̄ = 0).
+
+The tangential direction. Δu_t and the test function's v_t are projections on the plane normal to N, the
+normalised P1 average of the facet normals of Γ_C at each vertex (:func:`vertex_normal`). With the facet
+normal ν itself, which jumps at every vertex of a curved P1 boundary, a vertex shared by two facets would
+have to stick in both facets' tangent planes, i.e. in every direction: as ε_r → 0 the stick zone of a
+curved Γ_C locks its vertices (normal included). N is continuous, so a vertex sticks in one plane only.
+On a flat Γ_C, N = ν. The normal law keeps ν (μ = 0 is the frictionless problem exactly).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from dolfinx import fem
+import dolfinx.fem.petsc as fem_petsc
+
+from .. import dolfinx_versions as versions
+
+
+@dataclass
+class FrictionLaw:
+    """The friction law's data on one mesh: F = c_t (u_n − g_0)_+^{m_t} (UFL, a Constant), the regularisation
+    ε_r (a Constant), and three P1 vector functions: ``previous`` u at the previous load state (Δu = u −
+    previous), ``frozen`` the iterate ū whose bound F(ū), ε(ū) the solver's inner problem uses, and
+    ``normal`` N (:func:`vertex_normal`)."""
+    c_t: object
+    m_t: object
+    epsilon: object
+    previous: fem.Function
+    frozen: fem.Function
+    normal: fem.Function
+
+
+def tangential(w, N):
+    """The part of a vector w normal to N (the tangent plane of Γ_C at each point)."""
+    return w - ufl.dot(w, N) * N
+
+
+def slip_increment(u, friction):
+    """Δu_t = (u − u_prev)_t, the tangential displacement's increment over the load increment."""
+    return tangential(u - friction.previous, friction.normal)
+
+
+def friction_bound(penetration, friction):
+    """F = c_t (u_n − g_0)_+^{m_t} (``penetration``: (u_n − g_0)_+)."""
+    return friction.c_t * penetration ** friction.m_t
+
+
+def tangential_traction(u, penetration, friction):
+    """σ_t = −F Δu_t / max(|Δu_t|, ε_r (u_n − g_0)_+) of the regularised law, 0 out of contact
+    (``penetration``: (u_n − g_0)_+ of the displacement whose bound is used). A conditional guards the
+    points out of contact, where the other branch would be 0/0."""
+    slip = slip_increment(u, friction)
+    size = ufl.max_value(ufl.sqrt(ufl.dot(slip, slip)), friction.epsilon * penetration)
+    return -ufl.conditional(ufl.le(penetration, 0), 0, friction_bound(penetration, friction) / size) * slip
+
+
+def dissipation(u, penetration, friction):
+    """F ψ_ε(Δu_t), ψ_ε(s) = |s|²/(2ε) for |s| ≤ ε, |s| − ε/2 beyond (ε = ε_r (u_n − g_0)_+): for a given
+    ``penetration`` (the frozen bound's) a convex, C¹ function of u whose derivative along v is
+    −σ_t · v_t (:func:`tangential_traction`)."""
+    slip = slip_increment(u, friction)
+    squared, length = ufl.dot(slip, slip), friction.epsilon * penetration
+    huber = ufl.conditional(ufl.le(squared, length ** 2), squared / (2 * length), ufl.sqrt(squared) - length / 2)
+    return ufl.conditional(ufl.le(penetration, 0), 0, friction_bound(penetration, friction) * huber)
+
+
+def vertex_normal(V, ds_contact):
+    """N: at each vertex of Γ_C the normalised ∫_Γ_C ν φ_i (the facet normals averaged with the weights of
+    the P1 hat function), 0 elsewhere; a P1 function of the vector space V."""
+    N = fem.Function(V)
+    vec = versions.petsc_vec(N)
+    fem_petsc.assemble_vector(vec, fem.form(ufl.inner(ufl.FacetNormal(V.mesh), ufl.TestFunction(V)) * ds_contact))
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    bs = V.dofmap.index_map_bs
+    owned = N.x.array[:V.dofmap.index_map.size_local * bs].reshape(-1, bs)
+    lengths = np.linalg.norm(owned, axis=1)
+    on_contact = lengths > 0
+    owned[on_contact] /= lengths[on_contact, None]
+    vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    return N

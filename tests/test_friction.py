@@ -1,0 +1,129 @@
+"""Coulomb friction with normal compliance (nc_dolfinx.physics.friction): the exact sheared layer of
+tests/mpi/sheared_layer.py in stick and slip, 2D and 3D, on 1, 2 and 3 ranks; μ = 0 against the
+frictionless problem; the slip measured from the previous state of a load path; the estimator's η_3 as the
+residual of the law; and the bad inputs of friction."""
+import json
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import nc_dolfinx as nc
+from conftest import ROOT, run
+from mpi.sheared_layer import EPS_R, exact_state, layer_problem, outcome
+from nc_dolfinx.errors import InputError
+
+SCRIPT = ROOT / "tests" / "mpi" / "sheared_layer.py"
+
+
+@pytest.mark.parametrize("dim, mode, m_n", [(2, "stick", 1.0), (2, "slip", 1.0), (2, "slip", 1.5),
+                                            (3, "stick", 1.0), (3, "slip", 1.5)])
+def test_the_sheared_layer_is_exact(dim, mode, m_n):
+    """Nodal values, the friction force (μP per unit base in slip, its stick fraction below), the pressure's
+    resultant, the stick/slip measures and the slip against the exact solution; the estimator vanishes on
+    the exact u (η_3 measures the law's residual, not σ_t, which is not zero here); forces balance. In slip
+    the bound holds with equality (Gγ = μP), which leaves the slip s determined only through the normal
+    law's d: it is met to 1e-6 relative, stick to round-off."""
+    result = outcome(nc.adapt(layer_problem(dim, mode, m_n)), dim, mode, m_n)
+    tolerance = 1e-10 if mode == "stick" else 1e-6
+    assert result["nodal_error"] < tolerance
+    assert result["friction_force"][0] == pytest.approx(result["exact_friction_force"], rel=tolerance)
+    assert np.abs(result["friction_force"][1:]).max() < 1e-10 * abs(result["exact_friction_force"])
+    assert result["contact_resultant"] == pytest.approx(result["exact_resultant"], rel=tolerance)
+    assert result[mode] == pytest.approx(result["base"], rel=1e-12)
+    assert result["stick" if mode == "slip" else "slip"] == 0.0
+    assert result["max_slip"] == pytest.approx(result["exact_slip"], rel=1e-5)
+    assert result["eta"] < 1e-8 * abs(result["exact_friction_force"])
+    assert result["force_balance"] < 1e-9
+    assert result["reaction_top"][0] == pytest.approx(-result["friction_force"][0], rel=1e-9)
+
+
+@pytest.mark.parametrize("nprocs", [2, 3])
+@pytest.mark.parametrize("dim, mode", [(2, "slip"), (3, "stick")])
+def test_ranks_give_the_same_layer(nprocs, dim, mode):
+    """1, 2 and 3 ranks: the same nodal values (sorted by coordinates) and numbers."""
+    outputs = [run([SCRIPT, dim, mode, 1.0], n) for n in (1, nprocs)]
+    for out in outputs:
+        assert out.returncode == 0, out.stderr[-3000:]
+    serial, parallel = (json.loads(out.stdout.strip().splitlines()[-1]) for out in outputs)
+    scale = np.abs(serial["nodal_values"]).max()
+    np.testing.assert_allclose(parallel["nodal_values"], serial["nodal_values"], atol=1e-9 * scale, rtol=0)
+    for key in ("friction_force", "contact_resultant", "stick", "slip", "reaction_top"):
+        np.testing.assert_allclose(parallel[key], serial[key], rtol=1e-8, atol=1e-12)
+
+
+def test_zero_friction_is_the_frictionless_problem():
+    """friction = 0 solves exactly the problem without friction: u_h, η and the reactions agree to
+    round-off (the friction term is zero, so only the solver's summation order can differ)."""
+    frictional = layer_problem(2, "slip", 1.0, friction=0.0)
+    raw = dict(frictional.raw)
+    raw["contact"] = {k: v for k, v in raw["contact"].items() if k not in ("friction", "slip_regularisation")}
+    frictionless = nc.Problem.from_dict(raw, "frictionless")
+    results = [nc.adapt(p) for p in (frictional, frictionless)]
+    u, v = (r.final.u.x.array for r in results)
+    assert np.abs(u - v).max() <= 1e-12 * np.abs(v).max()
+    rows = [r.history[-1] for r in results]
+    assert rows[0]["eta"] == pytest.approx(rows[1]["eta"], rel=1e-10)
+    np.testing.assert_allclose(rows[0]["reaction_top"], rows[1]["reaction_top"], rtol=1e-10)
+    assert rows[0]["friction_force"] == [0.0, 0.0]
+
+
+def test_the_slip_is_measured_from_the_previous_state():
+    """A load path: step 1 presses the layer without shear, step 2 shears it (in stick). The slip increment
+    of step 2 is measured from step 1's state, whose base did not move tangentially, so step 2 ends at the
+    exact layer; step 1's state is the pressed layer (no friction force)."""
+    problem = layer_problem(2, "stick", 1.0)
+    gamma, slip, *_ = exact_state(2, "stick", 1.0)
+    raw = dict(problem.raw)
+    raw["parameters"] = {"gamma": 0.0, "s": 0.0}
+    e, depth = exact_state(2, "stick", 1.0)[2:4]
+    u = ["gamma*y + s", f"-{e!r}*y - {depth!r}"]
+    raw["loads"] = dict(raw["loads"], u_D=u)
+    raw["exact"] = {"u": u}
+    raw["steps"] = [{"set": {"gamma": 0.0}}, {"set": {"gamma": gamma, "s": slip}}]
+    result = nc.adapt(nc.Problem.from_dict(raw, "layer-path"))
+    first, second = result.history
+    assert abs(first["friction_force"][0]) < 1e-12
+    assert second["h1_error"] < 1e-10 * first["elastic_energy"] ** 0.5
+    assert second["max_slip"] == pytest.approx(slip, rel=1e-8)
+
+
+def test_eta_3_is_the_residual_of_the_law():
+    """On the exact sheared layer σ_t(u_h) ≠ 0 (the friction force), so the frictionless η_3 (‖σ_t‖ on Γ_C)
+    would not vanish; the law's residual does."""
+    result = nc.adapt(layer_problem(2, "stick", 1.0))
+    row = result.history[-1]
+    assert row["eta_3"] < 1e-12
+    sigma_t = abs(row["friction_force"][0]) / 2.0  # the uniform traction on a base of length 2
+    assert sigma_t > 1e-3
+
+
+@pytest.mark.parametrize("contact, message", [
+    ({"friction": -0.1}, "contact.friction must be >= 0"),
+    ({"friction": "-x"}, "contact.friction must be >= 0 on Γ_C"),
+    ({"c_t": 1.0}, "contact.m_t is missing"),
+    ({"m_t": 1.0}, "contact.c_t is missing"),
+    ({"friction": 0.3, "c_t": 1.0, "m_t": 1.0}, "not both"),
+    ({"slip_regularisation": 1e-3}, "has no effect without friction"),
+    ({"friction": 0.3, "slip_regularisation": 0.0}, "contact.slip_regularisation"),
+    ({"c_t": -1.0, "m_t": 1.0}, "contact.c_t must be >= 0"),
+    ({"c_t": 1.0, "m_t": 0.5}, "contact.m_t"),
+])
+def test_bad_friction_input(contact, message):
+    """Each bad friction input is one InputError naming the key."""
+    raw = dict(layer_problem(2, "stick", 1.0).raw)
+    base = {k: v for k, v in raw["contact"].items() if k not in ("friction", "slip_regularisation")}
+    raw["contact"] = {**base, **contact}
+    with pytest.raises(InputError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        problem = nc.Problem.from_dict(raw, "bad")
+        nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+
+
+def test_regularisation_default_and_limit():
+    """ε_r defaults to 1e-3; in stick the slip is ε_r d times Gγ/(μP): it scales with ε_r (→ 0: Coulomb's
+    stick)."""
+    raw = dict(layer_problem(2, "stick", 1.0).raw)
+    raw["contact"] = {k: v for k, v in raw["contact"].items() if k != "slip_regularisation"}
+    assert nc.Problem.from_dict(raw, "default").values["contact"]["slip_regularisation"] == 1e-3
+    gamma, slip, e, depth, _ = exact_state(2, "stick", 1.0)
+    assert slip == pytest.approx(0.8 * EPS_R * depth, rel=1e-12)
