@@ -53,6 +53,7 @@ class Member:
     gap: tuple = (0.0, 0.0)  # g_0 = a + b x
     body: str = "square"     # a key of BODIES
     group: str = ""          # "issue": the five rows of issue 13, "corner": c_n/E and m_n extremes, ...
+    friction: float = None   # Coulomb's μ (contact.friction), None: frictionless
 
     def gap_text(self):
         a, b = self.gap
@@ -82,7 +83,12 @@ MEMBERS_2D = [
 # 3D: every law of the 2D family on the unit cube (m_n <= 3 is admissible in 3D), group "3d"
 MEMBERS_3D = [replace(m, name="3d-" + m.name, group="3d",
                       body={"square": "cube", "two_materials": "two_materials_cube"}[m.body]) for m in MEMBERS_2D]
-MEMBERS = MEMBERS_2D + MEMBERS_3D
+# Coulomb friction (issue 32): the issue's laws with μ from 0.1 to 1. The weight presses the base, which the
+# Poisson effect spreads sideways: it sticks in the middle and slips towards the free sides.
+MEMBERS_FRICTION = [Member(f"{m.name}-mu{mu:g}", m.c_n, m.m_n, m.gap, m.body, "friction", mu)
+                    for m in MEMBERS_2D[:3] for mu in (0.1, 0.3, 1.0)]
+MEMBERS_FRICTION += [replace(m, name="3d-" + m.name, group="friction3d", body="cube") for m in MEMBERS_FRICTION[:6]]
+MEMBERS = MEMBERS_2D + MEMBERS_3D + MEMBERS_FRICTION
 
 
 # --- bodies: (mesh table, Domain or None, material extras) for `cells` cells a side -----------------
@@ -131,7 +137,8 @@ def member_problem(member, cells, comm, tmp):
     mesh.update(ROLES[dim])
     data = {"mesh": mesh, "material": {"E": 1.0, "nu": 0.3, **material},
             "loads": {"f": ["0"] * (dim - 1) + ["-0.5"]},
-            "contact": {"c_n": member.c_n, "m_n": member.m_n, "gap": member.gap_text()}}
+            "contact": {"c_n": member.c_n, "m_n": member.m_n, "gap": member.gap_text(),
+                        **({} if member.friction is None else {"friction": member.friction})}}
     problem = nc.Problem.from_dict(data, member.name)
     return problem, domain if domain is not None else nc.build_domain(problem, comm)
 
@@ -196,7 +203,8 @@ def measure(problem, domain, comm, repeat, initial=None, with_equal_floor=False,
         stats = solution.stats
         best.update(floor_its=floor_its, floor_residual=floor_residual, newton=stats.newton_iterations,
                     krylov=stats.linear_iterations, reason=stats.converged_reason, preset=stats.preset,
-                    pc_setups=stats.pc_setups, recoveries=stats.recoveries, pc_type=stats.pc_type)
+                    pc_setups=stats.pc_setups, recoveries=stats.recoveries, pc_type=stats.pc_type,
+                    passes=stats.friction_passes)
     floor.destroy()
     best["ratio"] = best["t_solve"] / best["t_floor"]
     if "t_floor_ml" in best:
@@ -275,7 +283,7 @@ def run_legacy(member, row, args, tmp):
 COLUMNS = [  # (key, header, format)
     ("member", "member", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"),
     ("pc_type", "pc", "{}"), ("newton", "Nwt", "{}"), ("krylov", "Kry", "{}"), ("pc_setups", "set", "{}"),
-    ("reason", "reason", "{}"),
+    ("passes", "fp", "{}"), ("reason", "reason", "{}"),
     ("t_floor", "floor", "{:.3f}"), ("floor_its", "its", "{}"), ("t_solve", "solve", "{:.3f}"),
     ("ratio", "cold/floor", "{:.2f}"), ("ratio_eq", "cold/floor=", "{:.2f}"),
     ("nested_newton", "nest Nwt", "{}"), ("nested_krylov", "Kry", "{}"), ("nested_pc_type", "pc", "{}"),
@@ -350,7 +358,7 @@ def driver(args):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--members", nargs="+", default=["all"],
-                   help="member names or groups (issue, corner, gap, materials, 3d) or all")
+                   help="member names or groups (issue, corner, gap, materials, 3d, friction, friction3d) or all")
     p.add_argument("--dims", type=int, nargs="+", default=[2, 3], choices=(2, 3))
     p.add_argument("--np", type=int, nargs="+", default=[1, 2])
     p.add_argument("--cells", type=int, default=CELLS[2], help="2D: cells a side (256: 132,098 dofs)")

@@ -208,6 +208,8 @@ def base_problems(draw, dim=None):
                else _number(draw, 1.0, 3.0)}
     if draw(st.booleans()):
         contact["gap"] = draw(st.sampled_from([0.0, 1e-4, 1e-3, "1e-3*x"]))
+    if draw(st.integers(0, 3)) == 0:  # Coulomb friction, now and then
+        contact["friction"] = draw(st.sampled_from([0.0, 0.1, 0.3, "0.2*(1 + x)"]))
     refine = draw(st.sampled_from(["none", "uniform", "adaptive"]))
     adapt = {"refine": refine} if refine == "none" else {"refine": refine, "levels": 2}
     if refine == "adaptive" and draw(st.booleans()):
@@ -457,7 +459,7 @@ def hostile_expressions(draw, coordinates=True, max_terms=30000):
     return draw(st.sampled_from(choices))
 
 
-EXPRESSION_SITES = ["contact.c_n", "contact.gap", "loads.f", "loads.g.top", "loads.u_D.left", "exact.u", "material.E",
+EXPRESSION_SITES = ["contact.c_n", "contact.gap", "contact.friction", "loads.f", "loads.g.top", "loads.u_D.left", "exact.u", "material.E",
                     "parameters.pfuzz", "--set contact.c_n"]
 
 

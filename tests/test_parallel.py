@@ -6,7 +6,8 @@ from conftest import ROOT, history, run, run_cli
 
 EXACT_KEYS = ("dofs", "cells", "newton_iterations", "marked")
 CLOSE_KEYS = ("eta", "eta_1", "eta_2", "eta_3", "eta_4", "zeta", "contact_resultant", "elastic_energy",
-              "max_penetration", "max_contact_pressure", "h1_error", "l2_error", "augmented_error")
+              "max_penetration", "max_contact_pressure", "h1_error", "l2_error", "augmented_error",
+              "stick_length", "slip_length", "stick_area", "slip_area", "max_slip")
 
 RUNS = {
     "block-adaptive": ["block", "--refine", "adaptive", "--levels", "5"],
@@ -17,6 +18,10 @@ RUNS = {
     # no Γ_D: symmetry planes and the foundation hold the box (its cold start settles it onto the foundation)
     "box-held-by-foundation": ["box", "--levels", "3", "--set", "mesh.dirichlet=[]", "--set", 'mesh.symmetry=["left","front"]',
                                "--set", 'mesh.neumann=["top","right","back"]'],
+    # Coulomb friction: the fixed point's passes and the stick zone, 2D adaptive and 3D on a load path
+    "block-friction": ["block", "--levels", "4", "--set", "contact.friction=0.3"],
+    "box-friction-path": ["box", "--levels", "2", "--set", "contact.friction=0.3", "--set", "parameters.s=0",
+                          "--set", 'loads.u_D=["0.002*s", "0", "0"]', "--set", "steps=[{set = {s = 1}, increments = 2}]"],
     "manufactured-maximum": ["manufactured", "--refine", "adaptive", "--marking", "maximum", "--levels", "4",
                              "--set", "parameters.m=1"],
 }
@@ -43,7 +48,10 @@ def test_parallel_matches_serial(runs, nprocs):
         for key in CLOSE_KEYS:
             if key in s:
                 assert p[key] == pytest.approx(s[key], rel=1e-8, abs=1e-14), (key, s["level"])
-        assert p["contact_force"] == pytest.approx(s["contact_force"], rel=1e-8, abs=1e-12)
+        for key in ("contact_force", "friction_force"):
+            if key in s:
+                assert p[key] == pytest.approx(s[key], rel=1e-8, abs=1e-12), (key, s["level"])
+        assert p.get("friction_passes") == s.get("friction_passes")
         scale = sum(abs(x) for x in s["applied_load"])
         for key in [k for k in s if k.startswith("reaction_")] + ["applied_load"]:
             assert p[key] == pytest.approx(s[key], rel=1e-8, abs=1e-10 * scale), (key, s["level"])

@@ -11,6 +11,9 @@ SIGN_CONVENTIONS = [
     "ν is the body's outward unit normal; u_n = u·ν > 0 moves Γ_C into the foundation.",
     "Penetration (u_n − g_0)_+ >= 0; contact pressure p = c_n (u_n − g_0)_+^m_n = −σ_n >= 0 (compression).",
     "contact_force = −∫_Γ_C p ν: the force the foundation exerts on the body (it points into the body).",
+    "Friction: Δu_t is the tangential part of u − u_prev (u_prev the previous load state); the tangential "
+    "traction s_t and friction_force are the foundation's on the body: they oppose the slip (s_t·Δu_t <= 0), "
+    "|s_t| <= F = μ p (Coulomb) or c_t (u_n − g_0)_+^m_t.",
     "reaction_GROUP: the force a support (Dirichlet group or symmetry plane) exerts on the body: a group moved "
     "outwards by loads.u_D, stretching the body, pulls it (its reaction points along the outward normal).",
 ]
@@ -27,7 +30,8 @@ COLUMNS = {
                  "partitioned anew",
     "eta_1": "η_1 = (Σ_K η_1K²)^½, η_1K = h_K ‖f_K‖_K (body force; Definition 5)",
     "eta_2": "η_2: jumps of σ(u_h)ν on interior facets and σ(u_h)ν − g on Γ_N (Definition 5)",
-    "eta_3": "η_3: tangential stress σ_t(u_h) on Γ_C (Definition 5)",
+    "eta_3": "η_3: tangential stress σ_t(u_h) on Γ_C (Definition 5); with friction the residual of the "
+             "friction law, σ_t(u_h) − s_t(u_h)",
     "eta_4": "η_4: residual of the law, c_n (u_hn − g_0)_+^m_n + σ_n(u_h) on Γ_C (Definition 5)",
     "eta": "the estimator η = (Σ_K η_K²)^½, η_K² = η_1K² + … + η_4K²",
     "zeta": "data oscillation ζ (§4.1)",
@@ -43,6 +47,14 @@ COLUMNS = {
     "contact_force_y": "y component of −∫_Γ_C p ν",
     "contact_force_z": "z component of −∫_Γ_C p ν (3D)",
     "contact_length": "measure of {p > 0} on Γ_C (2D; contact_area in 3D)",
+    "friction_force_x": "with friction: x component of ∫_Γ_C s_t, the tangential force of the foundation on "
+                        "the body (_y, _z alike)",
+    "slip_length": "with friction: measure of the part of {p > 0} where the body slips, |Δu_t| > ε_r (u_hn − "
+                   "g_0)_+ (2D; slip_area in 3D)",
+    "stick_length": "with friction: measure of the part of {p > 0} where it sticks, |Δu_t| <= ε_r (u_hn − g_0)_+ "
+                    "(2D; stick_area in 3D)",
+    "max_slip": "with friction: max of the nodal slip increment |Δu_t| on Γ_C (lumped projection)",
+    "friction_passes": "with friction: passes of the fixed point on the friction bound (see Solver)",
     "max_penetration": "max of the nodal penetration (u_hn − g_0)_+ >= 0 on Γ_C",
     "applied_load_x": "x component of the resultant of the given loads, ∫_Ω f + ∫_Γ_N g (_y, _z alike)",
     "reaction_GROUP_x": "x component of the force the Dirichlet or symmetry group GROUP exerts on the body "
@@ -65,11 +77,15 @@ COLUMNS = {
     "time_mark": "seconds: marking",
     "time_output": "seconds: writing the level's files (rank 0's clock)",
 }
-ALIASES = {"contact_force": "contact_force_x", "contact_area": "contact_length"}
+ALIASES = {"contact_force": "contact_force_x", "contact_area": "contact_length", "friction_force": "friction_force_x",
+           "slip_area": "slip_length", "stick_area": "stick_length"}
 
 FIELDS = {
     "displacement": "P1 vector u_h (3 components in the VTU files: z = 0 in 2D)",
     "contact_pressure": "P1 p >= 0 on Γ_C (lumped L² projection), 0 elsewhere",
+    "tangential_traction": "with friction: P1 s_t on Γ_C, the law's tangential traction (lumped projection)",
+    "slip": "with friction: P1 slip increment Δu_t on Γ_C (lumped projection)",
+    "stick_slip": "with friction: P1 on Γ_C, 0 no contact, 1 stick, 2 slip (at the vertices)",
     "stress": "DG0 3×3 Cauchy stress σ(u_h) (row-major xx, xy, xz, yx, …)",
     "von_mises": "DG0 von Mises stress of the 3×3 stress",
     "eta": "DG0 η_K (eta_1 … eta_4: its parts η_1K … η_4K)",
@@ -82,8 +98,9 @@ def describe(name):
     """The meaning of a column (None if undocumented: tests/test_output.py fails then)."""
     if name.startswith("reaction_") and name[-2:] in ("_x", "_y", "_z"):
         return COLUMNS["reaction_GROUP_x"].replace("GROUP", repr(name[len("reaction_"):-2]), 1)
-    if name.startswith("applied_load_"):
-        return COLUMNS["applied_load_x"]
+    for vector in ("applied_load_", "friction_force_"):
+        if name.startswith(vector):
+            return COLUMNS[vector + "x"]
     return COLUMNS.get(ALIASES.get(name, name))
 
 

@@ -135,18 +135,20 @@ def _balance(forces):
 
 def contact_projection(expr, fields, name):
     """Lumped L² projection of a UFL quantity ``expr`` on Γ_C (the contact boundary of §2, e.g. the
-    pressure of the law (4)) onto P1: q_i = ∫_Γ_C q φ_i / ∫_Γ_C φ_i, zero off Γ_C. Returns a scalar P1
-    ``fem.Function`` called ``name``."""
-    V = versions.p1_space(fields.domain.mesh)
+    pressure of the law (4)) onto P1: q_i = ∫_Γ_C q φ_i / ∫_Γ_C φ_i, zero off Γ_C. Returns a P1
+    ``fem.Function`` called ``name``, scalar or of ``expr``'s vector shape."""
+    V = versions.p1_space(fields.domain.mesh, expr.ufl_shape)
     v = ufl.TestFunction(V)
     dC = forms.contact_measure(fields)
-    num, den = (fem_petsc.assemble_vector(fem.form(q * v * dC)) for q in (expr, 1.0))
+    first = v[0] if expr.ufl_shape else v  # (∫_Γ_C φ_i, the same for every component)
+    num, den = (fem_petsc.assemble_vector(fem.form(form * dC)) for form in (ufl.inner(expr, v), first))
     for vec in (num, den):
         vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     out = fem.Function(V, name=name)
-    n_owned = V.dofmap.index_map.size_local
-    d = den.array[:n_owned]
-    out.x.array[:n_owned] = np.where(d > 0, num.array[:n_owned] / np.where(d > 0, d, 1.0), 0.0)
+    bs, n_owned = V.dofmap.index_map_bs, V.dofmap.index_map.size_local
+    d = den.array[:n_owned * bs].reshape(-1, bs)[:, :1]
+    values = np.where(d > 0, num.array[:n_owned * bs].reshape(-1, bs) / np.where(d > 0, d, 1.0), 0.0)
+    out.x.array[:n_owned * bs] = values.ravel()
     out.x.scatter_forward()
     num.destroy()
     den.destroy()
