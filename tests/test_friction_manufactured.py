@@ -150,10 +150,12 @@ def uniform_2d(tmp_path_factory):
 
 
 def test_optimal_rate_and_steady_effectivity(uniform_2d):
-    """Uniform refinement, 4×4 → 64×64: ‖u − u_h‖_1 = O(dofs^{-1/2}) and ‖u − u_h‖_0 = O(dofs^{-1}) over the
-    last three levels (measured −0.50 and −0.99); η/‖u − u_h‖_1 above 1 (reliability), below 20 and
-    steady (measured 8.9–9.3); η_3 → 0 at least as fast as the error; the friction force → its exact
-    value, and the stick and slip measures settle."""
+    """Uniform refinement, 4×4 → 64×64: ‖u − u_h‖_1 = O(dofs^{-1/2}), ‖u − u_h‖_0 = O(dofs^{-1}) and
+    η = O(dofs^{-1/2}) over the last three levels (measured −0.518, −1.036, −0.513: the dofs (n + 1)²
+    make the slopes steeper than −1/2 and −1 by about 0.02 on these meshes); η/‖u − u_h‖_1 above 1
+    (reliability), below 20 and steady (measured 8.98–9.23); η_3 → 0 faster than the error (measured
+    −0.75, h^{3/2}); the friction force → its exact value (2D: 6.8e-5 relative on 128×128, see
+    docs/src/manufactured_friction.md), and the stick and slip measures settle."""
     rows = uniform_2d
     assert len(rows) == 5
     assert slope(rows, "h1_error") == pytest.approx(-0.5, abs=0.04)
@@ -178,13 +180,15 @@ def test_exact_stick_length_is_approached(uniform_2d):
     assert abs(uniform_2d[-1]["stick_length"] - exact) <= abs(uniform_2d[0]["stick_length"] - exact) + 1e-12
 
 
-def test_one_and_two_ranks_agree():
-    """1 and 2 ranks, three uniform levels: the same η, η_i, errors and friction force at every level."""
-    outputs = [run([SCRIPT, 2, 3], n, timeout=300) for n in (1, 2)]
+@pytest.mark.parametrize("dim, levels", [(2, 3), (3, 2)])
+def test_one_and_two_ranks_agree(dim, levels):
+    """1 and 2 ranks, uniform levels (2D: 4×4 → 16×16; 3D: 3×3×3 → 6×6×6): the same η, η_i, errors and
+    friction force at every level."""
+    outputs = [run([SCRIPT, dim, levels], n, timeout=300) for n in (1, 2)]
     for out in outputs:
         assert out.returncode == 0, out.stderr[-3000:]
     serial, parallel = (json.loads(out.stdout.strip().splitlines()[-1]) for out in outputs)
-    assert len(serial) == len(parallel) == 3
+    assert len(serial) == len(parallel) == levels
     for a, b in zip(serial, parallel):
         assert a["dofs"] == b["dofs"]
         for key in ("eta", "eta_1", "eta_2", "eta_3", "eta_4", "h1_error", "l2_error", "max_slip"):
