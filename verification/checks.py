@@ -408,9 +408,11 @@ BUILDERS = {"manufactured": manufactured, "closed_form": closed_form, "penalty":
 
 def evaluate(results, errors, mode):
     import checks3d  # the 3D studies (it imports this module's helpers)
-    titles, builders = {**TITLES, **checks3d.TITLES}, {**BUILDERS, **checks3d.BUILDERS}
+    import checks_friction  # the friction studies (issue 32)
+    titles = {**TITLES, **checks3d.TITLES, **checks_friction.TITLES}
+    builders = {**BUILDERS, **checks3d.BUILDERS, **checks_friction.BUILDERS}
     order = ["manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity",
-             *checks3d.ORDER]
+             *checks3d.ORDER, *checks_friction.ORDER]
     sections = []
     for key in order:
         source = "manufactured" if key == "efficiency" else key

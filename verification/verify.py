@@ -27,14 +27,16 @@ from common import PYTHON, child_env, mpirun_prefix  # noqa: E402
 import checks  # noqa: E402
 
 STUDY_ORDER = ["manufactured", "closed_form", "penalty", "hertz", "corner", "parallel",
-               "manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d"]
+               "manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d", "friction_exact",
+               "friction_manufactured"]
 STUDIES_3D = {"manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d"}  # run by worker3d.py
+STUDIES_FRICTION = {"friction_exact", "friction_manufactured"}  # run by worker_friction.py
 ON_ALL_RANK_COUNTS = {"parallel", "parallel3d"}
 PARALLEL_RANKS = (1, 2, 3)
 
 
 def run_worker(study, mode, nprocs, out_json, log, timeout):
-    worker = "worker3d.py" if study in STUDIES_3D else "worker.py"
+    worker = "worker3d.py" if study in STUDIES_3D else "worker_friction.py" if study in STUDIES_FRICTION else "worker.py"
     cmd = mpirun_prefix(nprocs) + [PYTHON, str(HERE / worker), study, "--mode", mode, "--out", str(out_json)]
     start = time.perf_counter()
     try:
