@@ -631,6 +631,7 @@ class NonlinearSolver(Recoveries):
         self.impose_dirichlet_values(x)  # (the load continuation changes λ between solves)
         self._residual(self.snes, x, self.b)
         fnorm = self.b.norm()
+        self.target = target  # (also when x already solves: the friction fixed point reads it)
         if fnorm <= target:  # (PETSc refuses rtol >= 1) an initial guess that already solves (7)
             stats.converged_reason = "CONVERGED_FNORM_ABS"
             return True
