@@ -629,6 +629,7 @@ class NonlinearSolver(Recoveries):
         fnorm = self.b.norm()
         if fnorm <= target:  # (PETSc refuses rtol >= 1) an initial guess that already solves (7)
             stats.converged_reason = "CONVERGED_FNORM_ABS"
+            self.target = target  # (_fixed_point reads it after the first pass)
             return True
         self.snes.setTolerances(rtol=target / fnorm, atol=target)
         if self.forcing is not None:
