@@ -33,7 +33,6 @@ sys.path.insert(0, str(ROOT / "verification"))
 import nc_dolfinx as nc  # noqa: E402
 from cattaneo3d import measures  # noqa: E402
 from cattaneo3d_patch import NO_CONTACT, SLIP, STICK, classify, contact_facets  # noqa: E402
-from nc_dolfinx.problem.problem import load_problem  # noqa: E402
 
 COLOURS = {NO_CONTACT: "#e4e4e4", STICK: "#3b6fb6", SLIP: "#f0a030"}
 
@@ -43,7 +42,7 @@ def main():
     ap.add_argument("output", nargs="?", default=str(ROOT / "docs" / "cattaneo3d.png"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="problem overrides")
     args = ap.parse_args()
-    problem = load_problem("cattaneo3d", args.set)
+    problem = nc.load_problem("cattaneo3d", args.set)
     result = nc.adapt(problem)
     final_state = list(problem.load_path())[-1].problem
     patch = contact_facets(result.final.solution)

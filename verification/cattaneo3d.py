@@ -25,7 +25,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import nc_dolfinx as nc
-from nc_dolfinx.problem.problem import load_problem
+
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -51,7 +51,7 @@ def measures(row, problem):
 
 def run(overrides=(), comm=MPI.COMM_WORLD):
     """Solve the case; returns (rows of the last step with their measures, the problem, seconds)."""
-    problem = load_problem("cattaneo3d", list(overrides))
+    problem = nc.load_problem("cattaneo3d", list(overrides))
     t0 = time.perf_counter()
     result = nc.adapt(problem, comm=comm)
     seconds = time.perf_counter() - t0
