@@ -634,7 +634,6 @@ class NonlinearSolver(Recoveries):
         self.target = target  # (also when x already solves: the friction fixed point reads it)
         if fnorm <= target:  # (PETSc refuses rtol >= 1) an initial guess that already solves (7)
             stats.converged_reason = "CONVERGED_FNORM_ABS"
-            self.target = target  # (_fixed_point reads it after the first pass)
             return True
         self.snes.setTolerances(rtol=target / fnorm, atol=target)
         if self.forcing is not None:
