@@ -34,7 +34,8 @@ def header(argv):
     print(f"- commit: {commit}{' (with uncommitted changes)' if dirty else ''}")
     print(f"- machine: {platform.node()}, {platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}, DOLFINx {dolfinx.__version__}, serial")
-    print(f"- command: PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction_layer.py {' '.join(argv)}".rstrip())
+    command = f"PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction_layer.py {' '.join(argv)}"
+    print(f"- command: {command.rstrip()}")
     print()
 
 
@@ -50,7 +51,8 @@ def uniform_dofs_for(error, uniform):
 
 
 def savings_table(adaptive, uniform):
-    print("| adaptive level | dofs | ‖u−u_h‖_1 | η/‖u−u_h‖_1 | uniform dofs for this error | uniform/adaptive dofs |")
+    print("| adaptive level | dofs | ‖u−u_h‖_1 | η/‖u−u_h‖_1 | uniform dofs for this error "
+          "| uniform/adaptive dofs |")
     print("|---|---|---|---|---|---|")
     for r in adaptive:
         need = uniform_dofs_for(r["h1_error"], uniform)
