@@ -1,0 +1,81 @@
+"""Uniform against Dörfler-adaptive refinement on nc_dolfinx/cases/manufactured_friction_layer.toml (the 2D
+manufactured frictional solution plus a narrow interior Gaussian bump): the H¹ error, its rate, the
+effectivity η/‖u − u_h‖_1 and, for each adaptive level, the uniform dofs that reach the same error
+(log-log interpolation between uniform levels) and their ratio to the adaptive dofs. Serial; prints Markdown.
+
+    PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction_layer.py [--quick]
+
+--quick: uniform to 64×64 only (a smoke run); the full run goes to 256×256.
+"""
+import math
+import os
+import platform
+import subprocess
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from manufactured_friction import ROOT, adaptive_table, run, uniform_table  # noqa: E402
+
+CASE = "manufactured_friction_layer"
+
+
+def header(argv):
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True).stdout.strip()
+    import dolfinx
+    print("# Manufactured frictional solution with an interior bump: uniform against adaptive\n")
+    print(f"- date: {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
+    print(f"- commit: {commit}{' (with uncommitted changes)' if dirty else ''}")
+    print(f"- machine: {platform.node()}, {platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()}, DOLFINx {dolfinx.__version__}, serial")
+    command = f"PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction_layer.py {' '.join(argv)}"
+    print(f"- command: {command.rstrip()}")
+    print()
+
+
+def uniform_dofs_for(error, uniform):
+    """The dofs a uniform mesh needs for ``error``: log-log interpolation between the uniform levels
+    (None outside their range)."""
+    ue = np.log([r["h1_error"] for r in uniform])
+    ud = np.log([r["dofs"] for r in uniform])
+    x = math.log(error)
+    if not ue[-1] <= x <= ue[0]:
+        return None
+    return math.exp(np.interp(x, ue[::-1], ud[::-1]))  # errors decrease along the uniform levels
+
+
+def savings_table(adaptive, uniform):
+    print("| adaptive level | dofs | ‖u−u_h‖_1 | η/‖u−u_h‖_1 | uniform dofs for this error "
+          "| uniform/adaptive dofs |")
+    print("|---|---|---|---|---|---|")
+    for r in adaptive:
+        need = uniform_dofs_for(r["h1_error"], uniform)
+        need_text, ratio = ("–", "–") if need is None else (f"{need:.0f}", f"{need / r['dofs']:.2f}")
+        print(f"| {r['level']} | {r['dofs']} | {r['h1_error']:.4e} | {r['eta'] / r['h1_error']:.3f} | "
+              f"{need_text} | {ratio} |")
+    print()
+
+
+def main(argv):
+    quick = "--quick" in argv
+    header(argv)
+    levels = 4 if quick else 6
+    print(f"## Uniform, 8×8, {levels} levels\n")
+    uniform, seconds = run(CASE, "--refine", "uniform", "--levels", str(levels))
+    uniform_table(uniform, 2, seconds)
+    print("## Dörfler θ = 0.5 from 8×8, against uniform at the same dofs\n")
+    adaptive, seconds = run(CASE, "--refine", "adaptive", "--theta", "0.5", "--levels", "30",
+                            "--max-dofs", str(uniform[-1]["dofs"]))
+    adaptive_table(adaptive, uniform, seconds)
+    print("## The uniform dofs needed for each adaptive error\n")
+    savings_table(adaptive, uniform)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
