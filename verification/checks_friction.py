@@ -1,11 +1,12 @@
 """The expectations of the friction studies (issue 32), evaluated on worker_friction.py's measurements."""
-from checks import Section
+from checks import Section, dofs_to_reach
 from common import fitted_slope, spread
 from manufactured_friction import EXACT_FORCE
 
 TITLES = {
     "friction_exact": "14. Friction: exact sheared layers (stick and slip, 2D and 3D) and μ = 0",
     "friction_manufactured": "15. Friction: manufactured solutions with stick and slip zones",
+    "cattaneo": "16. Friction: Cattaneo–Mindlin partial slip of a cylinder and a sphere",
 }
 ORDER = list(TITLES)
 
@@ -17,6 +18,11 @@ H1_SLOPE = {2: (-0.55, -0.45), 3: (-0.40, -0.28)}  # against dofs: −1/2 in 2D,
 EFF_BOUNDS = (1.0, 20.0)
 EFF_SETTLE = 0.10         # max/min − 1 of η/‖e‖_1 over the last three uniform levels (2D)
 FORCE_ORDER = 1.5         # the friction force's error falls at least like h^1.5 in 2D (measured h²)
+# Cattaneo–Mindlin (tests/test_cattaneo.py and test_cattaneo3d.py say where the tolerances come from): the
+# contact size against Hertz, the stick zone against c/a = (1 − Q/(μP))^(1/2) (cylinder) or ^(1/3) (sphere)
+CYLINDER_A, CYLINDER_C = 0.02, 0.03   # |a/a_Hertz − 1|, |c/a − CM|
+SPHERE_A, SPHERE_C = 0.05, (-0.09, 0.0)  # |a/a_Hertz − 1|, (c/a)/CM − 1 (the shipped mesh: a/10 cells)
+LAYER_DOF_RATIO = 3.0     # manufactured_friction_layer: uniform needs this many times adaptive's dofs (measured ~7)
 
 
 def friction_exact(data):
@@ -83,7 +89,44 @@ def friction_manufactured(data):
     ratio = [r["eta"] / r["h1_error"] for r in adaptive]
     s.check("2D adaptive effectivity", f"{min(ratio):.2f} … {max(ratio):.2f}",
             f"in [{EFF_BOUNDS[0]:g}, {EFF_BOUNDS[1]:g}]", EFF_BOUNDS[0] <= min(ratio) and max(ratio) <= EFF_BOUNDS[1])
+    uniform, adaptive = data["layer_uniform"], data["layer_adaptive"]
+    target = uniform[-1]["h1_error"]
+    ratio = uniform[-1]["dofs"] / dofs_to_reach(adaptive, target)
+    s.tables.append(("2D manufactured_friction_layer: a narrow bump inside the body; uniform, then Dörfler θ = 0.5",
+                     ["refinement", "level", "dofs", "‖u − u_h‖_1", "η/‖e‖_1"],
+                     [[kind, r["level"], r["dofs"], f"{r['h1_error']:.4e}", f"{r['eta'] / r['h1_error']:.3f}"]
+                      for kind, rows in (("uniform", uniform), ("adaptive", adaptive)) for r in rows]))
+    s.check("adaptive beats uniform (layer)", f"uniform needs {ratio:.1f}× the dofs for its finest error",
+            f">= {LAYER_DOF_RATIO:g}×", ratio >= LAYER_DOF_RATIO)
     return s
 
 
-BUILDERS = {"friction_exact": friction_exact, "friction_manufactured": friction_manufactured}
+def cattaneo(data):
+    s = Section("cattaneo", TITLES["cattaneo"])
+    c = data["cylinder"]
+    s.tables.append(("cylinder (2D, plane strain): pressed without friction, then moved sideways with μ = "
+                     f"{c['mu']:g}", ["P", "Q", "Q/(μP)", "a", "a Hertz", "c/a", "CM (1 − Q/μP)^½", "passes"],
+                     [[f"{c['P']:.4f}", f"{c['Q']:.4f}", f"{c['Q_over_muP']:.3f}", f"{c['a']:.5f}",
+                       f"{c['a_hertz']:.5f}", f"{c['c_over_a']:.3f}", f"{c['c_over_a_cm']:.3f}", c["passes"]]]))
+    error = c["a"] / c["a_hertz"] - 1
+    s.check("cylinder: contact half-width against Hertz", f"{100 * error:+.2f} %", f"within ±{100 * CYLINDER_A:g} %",
+            abs(error) <= CYLINDER_A)
+    gap = c["c_over_a"] - c["c_over_a_cm"]
+    s.check("cylinder: stick zone against Cattaneo–Mindlin", f"c/a − CM = {gap:+.4f}", f"within ±{CYLINDER_C:g}",
+            abs(gap) <= CYLINDER_C)
+    rows = data["sphere"]
+    s.tables.append(("sphere (3D, half ball): the sideways increments after the frictionless pressing",
+                     ["increment", "P", "Q/(μP)", "a", "a Hertz", "c/a", "CM (1 − Q/μP)^⅓", "passes"],
+                     [[r["increment"], f"{r['P']:.4f}", f"{r['Q/muP']:.3f}", f"{r['a']:.5f}", f"{r['a_hertz']:.5f}",
+                       f"{r['c/a']:.3f}", f"{r['c/a_mindlin']:.3f}", r["friction_passes"]] for r in rows]))
+    worst_a = max(abs(r["a_error"]) for r in rows)
+    s.check("sphere: contact radius against Hertz", f"max |a/a_H − 1| = {100 * worst_a:.2f} %",
+            f"<= {100 * SPHERE_A:g} %", worst_a <= SPHERE_A)
+    errors = [r["c/a_error"] for r in rows]
+    low, high = SPHERE_C
+    s.check("sphere: stick radius against Mindlin", f"(c/a)/CM − 1 = {min(errors):+.3f} … {max(errors):+.3f}",
+            f"in [{low:g}, {high:g}]", all(low <= e <= high for e in errors))
+    return s
+
+
+BUILDERS = {"friction_exact": friction_exact, "friction_manufactured": friction_manufactured, "cattaneo": cattaneo}

@@ -28,9 +28,9 @@ import checks  # noqa: E402
 
 STUDY_ORDER = ["manufactured", "closed_form", "penalty", "hertz", "corner", "parallel",
                "manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d", "friction_exact",
-               "friction_manufactured"]
+               "friction_manufactured", "cattaneo"]
 STUDIES_3D = {"manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d"}  # run by worker3d.py
-STUDIES_FRICTION = {"friction_exact", "friction_manufactured"}  # run by worker_friction.py
+STUDIES_FRICTION = {"friction_exact", "friction_manufactured", "cattaneo"}  # run by worker_friction.py
 ON_ALL_RANK_COUNTS = {"parallel", "parallel3d"}
 PARALLEL_RANKS = (1, 2, 3)
 

@@ -5,7 +5,9 @@
 - ``friction_exact``: the sheared layer of tests/mpi/sheared_layer.py (an exact linear state of the
   regularised Coulomb law, stick and slip, 2D and 3D) and μ = 0 against the frictionless problem;
 - ``friction_manufactured``: the manufactured frictional solutions with stick and slip zones
-  (cases manufactured_friction and manufactured_friction3d), uniform refinement and Dörfler's.
+  (cases manufactured_friction and manufactured_friction3d), uniform refinement and Dörfler's, and
+  manufactured_friction_layer (a narrow bump inside the body), where adaptivity must pay;
+- ``cattaneo``: Cattaneo–Mindlin partial slip of a cylinder and of a sphere (cases cattaneo, cattaneo3d).
 Only the public API; one JSON file (rank 0).
 """
 import sys
@@ -21,11 +23,11 @@ sys.path.insert(0, str(ROOT / "tests"))
 from mpi.sheared_layer import exact_state, layer_problem, outcome  # noqa: E402
 
 CONFIG = {
-    "quick": {"friction_exact": {"layers": [[2, "stick", 1.0], [2, "slip", 1.0], [3, "stick", 1.0]]},
-              "friction_manufactured": {"levels_2d": 4, "levels_3d": 3, "adaptive_levels_2d": 8}},
-    "full": {"friction_exact": {"layers": [[2, "stick", 1.0], [2, "slip", 1.0], [2, "slip", 1.5], [3, "stick", 1.0],
+    "quick": {"cattaneo": {}, "friction_exact": {"layers": [[2, "stick", 1.0], [2, "slip", 1.0], [3, "stick", 1.0]]},
+              "friction_manufactured": {"levels_2d": 4, "levels_3d": 3, "adaptive_levels_2d": 8, "layer_levels": 5}},
+    "full": {"cattaneo": {}, "friction_exact": {"layers": [[2, "stick", 1.0], [2, "slip", 1.0], [2, "slip", 1.5], [3, "stick", 1.0],
                                            [3, "slip", 1.5]]},
-             "friction_manufactured": {"levels_2d": 5, "levels_3d": 3, "adaptive_levels_2d": 12}},
+             "friction_manufactured": {"levels_2d": 5, "levels_3d": 3, "adaptive_levels_2d": 12, "layer_levels": 6}},
 }
 FRICTION_KEYS = ("friction_force", "stick_length", "slip_length", "stick_area", "slip_area", "max_slip",
                  "friction_passes")
@@ -70,10 +72,28 @@ def study_friction_manufactured(cfg):
             settings = nc.AdaptSettings.from_problem(problem, refine="adaptive", levels=cfg["adaptive_levels_2d"],
                                                      max_dofs=out["uniform2"][-1]["dofs"])
             out["adaptive2"] = [row_of(r) for r in nc.adapt(problem, settings).history]
+    layer = nc.load_problem("manufactured_friction_layer")
+    out["layer_uniform"] = [row_of(r) for r in nc.adapt(layer, uniform_settings(cfg["layer_levels"])).history]
+    settings = nc.AdaptSettings.from_problem(layer, refine="adaptive", levels=20,
+                                             max_dofs=out["layer_uniform"][-1]["dofs"])
+    out["layer_adaptive"] = [row_of(r) for r in nc.adapt(layer, settings).history]
     return out
 
 
-STUDIES = {"friction_exact": study_friction_exact, "friction_manufactured": study_friction_manufactured}
+def study_cattaneo(cfg):
+    """Cattaneo–Mindlin partial slip: the cylinder (case cattaneo) and the sphere (cattaneo3d), measured by
+    verification/cattaneo.py and cattaneo3d.py."""
+    sys.path.insert(0, str(ROOT / "verification"))
+    import cattaneo
+    import cattaneo3d
+    cylinder = cattaneo.measure(cattaneo.case_problem())
+    cylinder.pop("profile", None)
+    sphere, _, seconds = cattaneo3d.run()
+    return {"cylinder": cylinder, "sphere": sphere, "sphere_seconds": seconds}
+
+
+STUDIES = {"friction_exact": study_friction_exact, "friction_manufactured": study_friction_manufactured,
+           "cattaneo": study_cattaneo}
 
 if __name__ == "__main__":
     sys.exit(main(STUDIES, CONFIG, with_output_path=()))
