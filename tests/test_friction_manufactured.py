@@ -7,7 +7,6 @@ The law, as the solver states it (u_prev = 0, a flat Γ_C so N = ν): with δ = 
     σ_n = −c_n δ^{m_n},   σ_t = −c_t δ^{m_t} Δu_t / max(|Δu_t|, ε_r δ),   Δu_t = u − u_n ν.
 """
 import json
-import math
 
 import numpy as np
 import pytest

@@ -1,10 +1,11 @@
-"""The solver of (7), in four rooms:
+"""The solver of (7), in five rooms:
 
 - :mod:`.newton`: the Newton driver (SNES with Π as its objective, the line minimisation, the
   preconditioner's refreshes, the bilateral predictor, the round-off test);
 - :mod:`.linear`: the linear-solver policy (the presets, ``auto``'s choice, the options' layers, the
   rigid-body near-nullspace) and :mod:`.forcing`, how accurately each linear system is solved;
 - :mod:`.recovery`: what is tried when a SNES solve fails;
+- :mod:`.fixed_point`: with friction, the fixed point on the friction bound around each increment's solve;
 - :mod:`.petsc_options`: the user's PETSc options, checked before the solve and after the first.
 """
 from .forcing import Forcing

@@ -30,6 +30,7 @@ from dolfinx.fem import petsc as fem_petsc
 
 from .. import dolfinx_versions as versions
 from ..errors import InputError
+from .fixed_point import FrictionFixedPoint
 from .forcing import Forcing
 from .linear import OWN_DEFAULTS, PRECONDITIONER_MATRICES, option_is_true, resolve_options, rigid_body_modes
 from .petsc_options import PREFIX, set_petsc_options, together
@@ -99,10 +100,6 @@ KRYLOV_MIN_ITS = 20
 WOLFE_ETA = 0.5
 LINE_TOL = 0.1
 OBJECTIVE_ROUNDOFF = 1e-10
-# Each pass of the friction fixed point solves to this fraction of the residual the last pass left (see
-# _fixed_point), the last one to the target.
-FRICTION_PASS_REDUCTION = 0.1
-EPSILON_START, EPSILON_REDUCTION = 10.0, 10.0
 # Round-off of the residual (see _within_roundoff): checked when ‖F‖ no longer falls below STALL_RATIO times
 # its last value, or when a solve fails.
 STALL_RATIO = 0.5
@@ -125,7 +122,7 @@ def _check_finite(matrix_or_vector, message):
         raise InputError(message)
 
 
-class NonlinearSolver(Recoveries):
+class NonlinearSolver(Recoveries, FrictionFixedPoint):
     """SNES for (7): F(u) = K u + j_n(u, ·) − λ L = 0, J(u) = K + j_n'(u), with Dirichlet BCs u = λ u_D
     ((2) generalised; u_D = 0 on clamped groups and symmetry planes).
 
@@ -730,48 +727,6 @@ class NonlinearSolver(Recoveries):
                              "--load-steps or a smaller c_n")
         finally:
             start.destroy()
-
-    def _copy_into(self, x, function):
-        """A Function of u's space set to the iterate x (ghosts included)."""
-        self._update(x)
-        function.x.array[:] = self.u.x.array
-
-    def _fixed_point(self, x, stats, factor):
-        """With friction: the fixed point on the friction bound (:mod:`nc_dolfinx.physics.friction`). Each pass
-        solves the convex problem with the bound F(ū), ε(ū) of ū = x frozen, then sets ū = x, until the
-        residual with x's own bound meets the first pass's target (or lies within its round-off). Returns the
-        fallbacks used."""
-        used, limit, loose = [], int(float(self.options["friction_passes"])), 0.0
-        epsilon = float(self.forms.epsilon.value)
-        # From a cold start the frictionless first pass leaves every point of Γ_C far in slip; a continuation in
-        # ε (from EPSILON_START) brings the stick zone in a stage at a time (layer stretched by its clamp: 32
-        # Newton steps instead of 53). A warm start (a finer level, the next increment) keeps its stick zone.
-        regularisation = max(epsilon, EPSILON_START) if x.norm() == 0.0 else epsilon
-        try:
-            for passes in range(1, limit + 1):
-                self._copy_into(x, self.forms.frozen)
-                self.forms.epsilon.value = regularisation
-                used += self._solve_load_step(x, stats, factor, loose)
-                target = self._target(self.initial_norm) if passes == 1 else target
-                self._copy_into(x, self.forms.frozen)
-                stats.friction_passes += 1
-                if regularisation > epsilon:
-                    regularisation = max(epsilon, regularisation / EPSILON_REDUCTION)
-                    loose = 0.0
-                    continue
-                self._residual(self.snes, x, self.b)
-                self.target = target
-                if self.b.norm() <= target or self._residual_within_roundoff(x):
-                    return used
-        finally:
-            self.forms.epsilon.value = epsilon
-            # The next pass changes the bound again: solving it beyond a fraction of what the bound's change
-            # left is wasted (with full solves: 54 Newton steps in 11 passes on a stretched layer).
-            loose = FRICTION_PASS_REDUCTION * self.b.norm()
-        raise InputError(f"the fixed point on the friction bound did not converge in {limit} passes (‖F‖ = "
-                         f"{self.b.norm():.3g} > {target:.3g}): the friction coefficient may be too large for "
-                         "a unique solution; try smaller increments ([[steps]] increments, --load-steps) or "
-                         "-friction_passes")
 
     def solve(self, load_steps=1):
         """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""

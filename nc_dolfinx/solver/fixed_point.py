@@ -1,0 +1,57 @@
+"""With friction: each load increment solved by a fixed point on the friction bound
+(:mod:`nc_dolfinx.physics.friction`), a part of :class:`~nc_dolfinx.solver.newton.NonlinearSolver`.
+
+The consistent Newton method on the frictional residual cycles between stick and slip from a cold start
+(on the sheared layer of tests/mpi/sheared_layer.py ‖F‖ alternated between 6.2e-3 and 7.3e-3, with or
+without PETSc's bt, cp or l2 line searches). So each pass freezes the bound F(ū), ε(ū) at ū = x and solves
+the convex problem it leaves — the frictionless solver's own kind: SPD Jacobian, energy line search,
+fallbacks — then sets ū = x, until the residual with x's own bound meets the target.
+"""
+from ..errors import InputError
+
+# Each pass but the last solves to this fraction of the residual the previous pass left: the next pass changes
+# the bound again, so more would be wasted.
+FRICTION_PASS_REDUCTION = 0.1
+# From a cold start the first pass (F̄ = 0) is the frictionless solve, after which every point of Γ_C lies far
+# in slip: the passes lower ε_r from EPSILON_START by EPSILON_REDUCTION a pass, bringing the stick zone in a
+# stage at a time (the layer stretched by its clamp: 32 Newton steps instead of 53).
+EPSILON_START, EPSILON_REDUCTION = 10.0, 10.0
+
+
+class FrictionFixedPoint:
+    """The fixed point on the friction bound (see the module)."""
+
+    def _copy_into(self, x, function):
+        """A Function of u's space set to the iterate x (ghosts included)."""
+        self._update(x)
+        function.x.array[:] = self.u.x.array
+
+    def _fixed_point(self, x, stats, factor):
+        """Solve the increment from x: passes with the bound of ū = x frozen until the residual with x's own
+        bound meets the first pass's target (or lies within its round-off). A warm start (a finer level, the
+        next increment) keeps its stick zone: no continuation in ε. Returns the fallbacks used."""
+        used, limit, loose, target = [], int(float(self.options["friction_passes"])), 0.0, None
+        epsilon = float(self.forms.epsilon.value)
+        regularisation = max(epsilon, EPSILON_START) if x.norm() == 0.0 else epsilon
+        try:
+            for passes in range(1, limit + 1):
+                self._copy_into(x, self.forms.frozen)
+                self.forms.epsilon.value = regularisation
+                used += self._solve_load_step(x, stats, factor, loose)
+                target = self._target(self.initial_norm) if target is None else target
+                self._copy_into(x, self.forms.frozen)
+                stats.friction_passes += 1
+                if regularisation > epsilon:  # a stage of the continuation
+                    regularisation = max(epsilon, regularisation / EPSILON_REDUCTION)
+                    continue
+                self._residual(self.snes, x, self.b)
+                self.target = target
+                if self.b.norm() <= target or self._residual_within_roundoff(x):
+                    return used
+                loose = FRICTION_PASS_REDUCTION * self.b.norm()
+        finally:
+            self.forms.epsilon.value = epsilon
+        raise InputError(f"the fixed point on the friction bound did not converge in {limit} passes (‖F‖ = "
+                         f"{self.b.norm():.3g} > {target:.3g}): the friction coefficient may be too large for "
+                         "a unique solution; try smaller increments ([[steps]] increments, --load-steps) or "
+                         "-friction_passes")
