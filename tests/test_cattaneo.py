@@ -22,6 +22,8 @@ import sys
 import numpy as np
 import pytest
 
+import nc_dolfinx as nc
+
 from conftest import ROOT, run
 
 sys.path.insert(0, str(ROOT / "verification"))
@@ -96,3 +98,23 @@ def test_switching_friction_on_without_motion():
     assert second["max_slip"] == 0.0
     np.testing.assert_allclose(second["reaction_top"], first["reaction_top"], rtol=1e-12)
 
+
+
+def test_a_load_cycle_through_stick_and_slip():
+    """The cylinder moved sideways, back past its start to the other side, and back to the middle (Mindlin's
+    load cycle): every increment converges with the defaults; on each reversal the contact sticks again
+    (the stick zone jumps back to nearly all of it, then the slip zones grow from the edges); the cycle is
+    symmetric (Q at −dt is minus Q at +dt) and hysteretic (at dt = 0 on the way back Q has the sign of the
+    last sliding, and returning to dt = 0 again gives its opposite)."""
+    case = nc.load_problem("cattaneo")
+    raw = dict(case.raw)
+    raw["steps"] = [{"set": {"dn": 0.01}}, {"set": {"mu": 0.3}}, {"set": {"dt": 0.004}, "increments": 2},
+                    {"set": {"dt": -0.004}, "increments": 4}, {"set": {"dt": 0.0}, "increments": 2}]
+    history = nc.adapt(nc.Problem.from_dict(raw, "cycle", case.source)).history
+    Q = {(r["step"], r["increment"]): r["friction_force"][0] for r in history}
+    stick = {(r["step"], r["increment"]): r["stick_length"] for r in history}
+    assert all(r["converged_reason"].startswith("CONVERGED") for r in history)
+    assert stick[(4, 1)] > 1.5 * stick[(3, 2)] and stick[(5, 1)] > 1.5 * stick[(4, 4)]
+    assert Q[(4, 4)] == pytest.approx(-Q[(3, 2)], rel=0.01)
+    assert Q[(4, 2)] > 0.01 * abs(Q[(3, 2)])  # dt = 0, moving back: the force opposes that motion (+x)
+    assert Q[(5, 2)] == pytest.approx(-Q[(4, 2)], rel=0.05)
