@@ -18,10 +18,9 @@ RUNS = {
     # no Γ_D: symmetry planes and the foundation hold the box (its cold start settles it onto the foundation)
     "box-held-by-foundation": ["box", "--levels", "3", "--set", "mesh.dirichlet=[]", "--set", 'mesh.symmetry=["left","front"]',
                                "--set", 'mesh.neumann=["top","right","back"]'],
-    # Coulomb friction: the fixed point's passes and the stick zone, 2D adaptive and 3D on a load path
+    # Coulomb friction: the fixed point's passes and the stick zone on adaptive levels (3D and load paths with
+    # friction on 1 and 2 ranks: test_friction.py, test_cattaneo.py, test_cattaneo3d.py)
     "block-friction": ["block", "--levels", "4", "--set", "contact.friction=0.3"],
-    "box-friction-path": ["box", "--levels", "2", "--set", "contact.friction=0.3", "--set", "parameters.s=0",
-                          "--set", 'loads.u_D=["0.002*s", "0", "0"]', "--set", "steps=[{set = {s = 1}, increments = 2}]"],
     "manufactured-maximum": ["manufactured", "--refine", "adaptive", "--marking", "maximum", "--levels", "4",
                              "--set", "parameters.m=1"],
 }
