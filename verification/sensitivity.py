@@ -24,7 +24,7 @@ BREAKS = {
     "interior jumps dropped from η_2": (JUMP, ""),
     "h_E² instead of h_K on interior edges": (JUMP, H_E_SQUARED),
 }
-COPY = ["nc_dolfinx", "verification", "meshes", "run_cases.py"]
+COPY = ["nc_dolfinx", "verification", "meshes", "run_cases.py", "tests/mpi"]  # (tests/mpi: the friction studies' layer)
 
 
 def run(nprocs, timeout=1800):
