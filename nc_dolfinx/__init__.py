@@ -49,7 +49,8 @@ from .mesh.refinement import refine, transfer
 from .mesh.tagged import from_dolfinx
 from .physics.binding import Fields, bind, build_domain
 from .physics.elasticity import lame, normal_stress, sigma
-from .physics.forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure
+from .physics.forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure, penetration
+from .physics.friction import slip_increment, tangential_traction
 from .physics.quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
 from .physics.reference import compare_with_reference, hertz_line_contact, hertz_sphere_contact
 from .problem.cases import case_names, case_path, case_titles
@@ -74,7 +75,8 @@ __all__ = [
     "Estimate", "estimate", "mark", "refine", "transfer",
     "AdaptSettings", "Level", "Result", "adapt",
     "solution_quantities", "errors", "integrate", "contact_projection",
-    "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure",
+    "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure", "penetration", "slip_increment",
+    "tangential_traction",
     "assemble_cellwise", "patch_sum", "hertz_line_contact", "hertz_sphere_contact", "compare_with_reference",
     "InputError", "UnsupportedDolfinx", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES",
     "dolfinx_versions",

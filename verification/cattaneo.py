@@ -29,8 +29,6 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import nc_dolfinx as nc  # noqa: E402
-from nc_dolfinx.physics import forms, friction  # noqa: E402
-from nc_dolfinx.physics.quantities import contact_projection  # noqa: E402
 
 CASE = "cattaneo"
 
@@ -110,9 +108,9 @@ def traction_profile(solution):
     tangential traction at the vertices of Γ_C in contact: rows (x, p, s_x), gathered on rank 0."""
     u, fields = solution.u, solution.fields
     n = ufl.FacetNormal(fields.domain.mesh)
-    penetration = forms.penetration(u, fields, n)
-    pressure = contact_projection(forms.contact_pressure(u, fields, n), fields, "p")
-    shear = contact_projection(friction.tangential_traction(u, penetration, fields.friction)[0], fields, "s")
+    penetration = nc.penetration(u, fields, n)
+    pressure = nc.contact_projection(nc.contact_pressure(u, fields, n), fields, "p")
+    shear = nc.contact_projection(nc.tangential_traction(u, penetration, fields.friction)[0], fields, "s")
     V = pressure.function_space
     owned = V.dofmap.index_map.size_local
     x = V.tabulate_dof_coordinates()[:owned, 0]

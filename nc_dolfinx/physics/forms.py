@@ -27,7 +27,8 @@ def normal_displacement(u, n):
 
 
 def penetration(u, fields, n=None):
-    """(u_n − g_0)_+ on Γ_C."""
+    """(u_n − g_0)_+ on Γ_C: how far u moves the boundary into the foundation beyond the gap g_0 (law (4));
+    ``n`` the unit normal (default: the facet normal)."""
     n = ufl.FacetNormal(fields.domain.mesh) if n is None else n
     return positive_part(normal_displacement(u, n) - fields.gap)
 

@@ -72,7 +72,8 @@ def tangential(w, N):
 
 
 def slip_increment(u, friction):
-    """Δu_t = (u − u_prev)_t, the tangential displacement's increment over the load increment."""
+    """Δu_t = (u − u_prev)_t, the tangential displacement's increment over the load increment, on the plane
+    normal to the vertex normal N: the slip of Coulomb's law on Γ_C, beside the penetration of law (4)."""
     return tangential(u - friction.previous, friction.normal)
 
 
@@ -82,7 +83,8 @@ def friction_bound(penetration, friction):
 
 
 def tangential_traction(u, penetration, friction):
-    """σ_t = −F Δu_t / max(|Δu_t|, ε_r (u_n − g_0)_+) of the regularised law, 0 out of contact
+    """σ_t = −F Δu_t / max(|Δu_t|, ε_r (u_n − g_0)_+) of the regularised Coulomb law, F = c_t (u_n − g_0)_+^{m_t}
+    (μ times the pressure of law (4) in Coulomb's case), 0 out of contact
     (``penetration``: (u_n − g_0)_+ of the displacement whose bound is used). A conditional guards the
     points out of contact, where the other branch would be 0/0."""
     slip = slip_increment(u, friction)
