@@ -3,7 +3,8 @@
 
 The consistent Newton method on the frictional residual cycles between stick and slip from a cold start
 (on the sheared layer of tests/mpi/sheared_layer.py, with full steps ‖F‖ alternated between 6.2e-3 and
-7.3e-3; PETSc's bt, cp and l2 line searches converged at ε_r = 0.1 in 40–61 steps, none at ε_r = 1e-3). So each pass freezes the bound F(ū), ε(ū) at ū = x and solves
+7.3e-3; with PETSc's line searches (bt on this law, cp and l2 on the smooth one) Newton converged at
+ε_r = 0.1 in 40–61 steps, at ε_r = 1e-3 not at all). So each pass freezes the bound F(ū), ε(ū) at ū = x and solves
 the convex problem it leaves — the frictionless solver's own kind: SPD Jacobian, energy line search,
 fallbacks — then sets ū = x, until the residual with x's own bound meets the target.
 """
