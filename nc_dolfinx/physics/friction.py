@@ -83,7 +83,7 @@ def friction_bound(penetration, friction):
 
 
 def tangential_traction(u, penetration, friction):
-    """σ_t = −F Δu_t / max(|Δu_t|, ε_r (u_n − g_0)_+) of the regularised Coulomb law, F = c_t (u_n − g_0)_+^{m_t}
+    """σ_t = −F Δu_t / max(‖Δu_t‖, ε_r (u_n − g_0)_+) of the regularised Coulomb law, F = c_t (u_n − g_0)_+^{m_t}
     (μ times the pressure of law (4) in Coulomb's case), 0 out of contact
     (``penetration``: (u_n − g_0)_+ of the displacement whose bound is used). A conditional guards the
     points out of contact, where the other branch would be 0/0."""
