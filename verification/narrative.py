@@ -224,6 +224,8 @@ and study 5 are the sharp tests.
 
     from narrative3d import compose3d
     add(compose3d(sec, results, pictures, section_md))
+    from narrative_friction import compose_friction
+    add(compose_friction(sec, section_md))
 
     add("## What this says about the paper's results\n")
     add(_conclusions(report, results))
@@ -235,7 +237,8 @@ and study 5 are the sharp tests.
 /usr/bin/python3 -m pytest tests/test_verification.py
 ```
 Files: `verify.py` (driver, expectations via `checks.py`/`checks3d.py`, this text via `report.py`/`report3d.py`/
-`narrative.py`/`narrative3d.py`), `worker.py` and `worker3d.py` (the computations, run under mpirun), `signorini.py`
+`narrative.py`/`narrative3d.py`/`narrative_friction.py`), `worker.py`, `worker3d.py` and `worker_friction.py` (the
+computations, run under mpirun), `signorini.py`
 (the VI solver), `overlay.py` (exact error between non-nested meshes), `common.py`.
 """)
     return "\n".join(L)
