@@ -12,11 +12,7 @@ Quantities (history rows of nc.adapt): P = -reaction_top[1] (normal force per un
 pressure on the curved Γ_C and is shown as Q_top), a = contact_length/2, c = stick_length/2. Theory: Hertz
 a_H = sqrt(4PR/(π E*)), E* = E/(1-ν²); Cattaneo–Mindlin c/a = (1 - Q/(μP))^{1/2}.
 """
-import datetime
 import math
-import platform
-import socket
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -148,22 +144,9 @@ def profile_comparison(m):
 
 
 def header(argv):
-    try:
-        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain"], capture_output=True,
-                               text=True).stdout.strip()
-        commit += " (with uncommitted changes)" if dirty else ""
-    except OSError:
-        commit = "?"
-    import dolfinx
-    return "\n".join([
-        f"# Cattaneo–Mindlin partial slip (case {CASE}), verification/cattaneo.py",
-        f"date:    {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M UTC}",
-        f"commit:  {commit}",
-        f"machine: {socket.gethostname()} {platform.machine()} {platform.system()} {platform.release()}, "
-        f"Python {platform.python_version()}, DOLFINx {dolfinx.__version__}, {MPI.COMM_WORLD.size} rank(s)",
-        f"command: PYTHONPATH=. /usr/bin/python3 verification/{Path(argv[0]).name} {' '.join(argv[1:])}".rstrip()])
+    from common import provenance
+    return "\n".join([f"# Cattaneo–Mindlin partial slip (case {CASE}), verification/cattaneo.py",
+                      *provenance("cattaneo.py", argv[1:], MPI.COMM_WORLD.size)])
 
 
 def table(title, columns, rows):

@@ -13,11 +13,8 @@ Cattaneo–Mindlin's c/a = (1 − Q/(μP))^(1/3). The last line is JSON (the fin
 tests and docs. docs/src/cattaneo3d.md discusses the differences.
 """
 import argparse
-import datetime
 import json
 import math
-import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -66,19 +63,8 @@ def run(overrides=(), comm=MPI.COMM_WORLD):
 
 
 def header(argv):
-    try:
-        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain"], capture_output=True,
-                               text=True).stdout.strip()
-        commit += " (+ uncommitted changes)" if dirty else ""
-    except OSError:
-        commit = "unknown"
-    return [f"date     {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M UTC}",
-            f"commit   {commit}",
-            f"machine  {platform.node()}, {platform.machine()}, {platform.python_implementation()} "
-            f"{platform.python_version()}, {MPI.COMM_WORLD.size} rank(s)",
-            f"command  {' '.join(argv)}"]
+    from common import provenance
+    return provenance("cattaneo3d.py", argv[1:], MPI.COMM_WORLD.size)
 
 
 def main(argv=None):

@@ -55,3 +55,28 @@ def fmt(value, spec=".3e"):
     if isinstance(value, (int, np.integer)):
         return str(value)
     return format(value, spec)
+
+
+def provenance(script, argv, ranks=1):
+    """The lines that go beside a measurement's table: date (UTC), commit (and whether the tree differs from it),
+    machine (with the DOLFINx version and the ranks) and the command that reproduces it (``script`` under
+    verification/, ``argv`` its arguments)."""
+    import datetime
+    import platform
+    import subprocess
+    import dolfinx
+
+    def git(*args):
+        try:
+            return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True).stdout.strip()
+        except OSError:
+            return ""
+
+    commit = git("rev-parse", "--short", "HEAD") or "?"
+    if git("status", "--porcelain", "--untracked-files=no"):
+        commit += " (with uncommitted changes)"
+    return [f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC",
+            f"- commit: {commit}",
+            f"- machine: {platform.node()}, {platform.machine()}, {os.cpu_count()} cores, Python "
+            f"{platform.python_version()}, DOLFINx {dolfinx.__version__}, {ranks} rank(s)",
+            f"- command: PYTHONPATH=. /usr/bin/python3 verification/{script} {' '.join(argv)}".rstrip()]

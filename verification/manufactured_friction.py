@@ -10,12 +10,10 @@ Dörfler-adaptive (θ = 0.5) against uniform at comparable dofs. Serial; prints 
 import json
 import math
 import os
-import platform
 import subprocess
 import sys
 import tempfile
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -43,17 +41,9 @@ def run(case, *options):
 
 
 def header(argv):
-    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
-    dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
-                           capture_output=True, text=True).stdout.strip()
-    import dolfinx
+    from common import provenance
     print("# Manufactured frictional solutions: convergence\n")
-    print(f"- date: {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
-    print(f"- commit: {commit}{' (with uncommitted changes)' if dirty else ''}")
-    print(f"- machine: {platform.node()}, {platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}, DOLFINx {dolfinx.__version__}, serial")
-    print(f"- command: PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction.py {' '.join(argv)}".rstrip())
+    print("\n".join(provenance("manufactured_friction.py", argv)))
     print()
 
 

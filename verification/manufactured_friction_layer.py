@@ -8,34 +8,21 @@ effectivity η/‖u − u_h‖_1 and, for each adaptive level, the uniform dofs 
 --quick: uniform to 64×64 only (a smoke run); the full run goes to 256×256.
 """
 import math
-import os
-import platform
-import subprocess
 import sys
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from manufactured_friction import ROOT, adaptive_table, run, uniform_table  # noqa: E402
+from manufactured_friction import adaptive_table, run, uniform_table  # noqa: E402
 
 CASE = "manufactured_friction_layer"
 
 
 def header(argv):
-    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
-    dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
-                           capture_output=True, text=True).stdout.strip()
-    import dolfinx
+    from common import provenance
     print("# Manufactured frictional solution with an interior bump: uniform against adaptive\n")
-    print(f"- date: {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC")
-    print(f"- commit: {commit}{' (with uncommitted changes)' if dirty else ''}")
-    print(f"- machine: {platform.node()}, {platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}, DOLFINx {dolfinx.__version__}, serial")
-    command = f"PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction_layer.py {' '.join(argv)}"
-    print(f"- command: {command.rstrip()}")
+    print("\n".join(provenance("manufactured_friction_layer.py", argv)))
     print()
 
 
