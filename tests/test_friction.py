@@ -120,10 +120,16 @@ def test_bad_friction_input(contact, message):
 
 
 def test_regularisation_default_and_limit():
-    """ε_r defaults to 1e-3; in stick the slip is ε_r d times Gγ/(μP): it scales with ε_r (→ 0: Coulomb's
-    stick)."""
+    """ε_r defaults to 1e-3; in stick the computed slip is the pre-slip ε_r d Gγ/(μP) = 0.8 ε_r d: it scales
+    with ε_r (→ 0: Coulomb's stick) while the friction force, which equilibrium fixes, hardly moves."""
     raw = dict(layer_problem(2, "stick", 1.0).raw)
     raw["contact"] = {k: v for k, v in raw["contact"].items() if k != "slip_regularisation"}
     assert nc.Problem.from_dict(raw, "default").values["contact"]["slip_regularisation"] == 1e-3
-    gamma, slip, e, depth, _ = exact_state(2, "stick", 1.0)
-    assert slip == pytest.approx(0.8 * EPS_R * depth, rel=1e-12)
+    depth = exact_state(2, "stick", 1.0)[3]
+    rows = {}
+    for eps_r in (EPS_R, EPS_R / 10):
+        raw["contact"]["slip_regularisation"] = eps_r
+        rows[eps_r] = nc.adapt(nc.Problem.from_dict(raw, f"eps{eps_r}")).history[-1]
+        assert rows[eps_r]["max_slip"] == pytest.approx(0.8 * eps_r * depth, rel=1e-6)
+    # (the clamp's displacement holds the first pre-slip, so the second's shear differs by ~ s/(γH) ≈ 1e-5)
+    assert rows[EPS_R / 10]["friction_force"][0] == pytest.approx(rows[EPS_R]["friction_force"][0], rel=1e-4)

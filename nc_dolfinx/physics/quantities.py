@@ -42,6 +42,7 @@ def solution_quantities(u, fields):
     max_pressure = comm.allreduce(float(np.max(pressure.x.array[:n_owned], initial=0.0)), MPI.MAX)
     applied, supports = support_forces(u, fields)
     frictional = friction_quantities(u, fields) if fields.friction is not None else {}
+    forces = [applied, force, *supports.values()] + ([frictional["friction_force"]] if frictional else [])
     return {
         "max_contact_pressure": max_pressure,
         "elastic_energy": integrate(forms.elastic_energy(u, fields), comm),
@@ -54,7 +55,7 @@ def solution_quantities(u, fields):
         "applied_load": applied,
         **{f"reaction_{name}": force for name, force in supports.items()},
         **frictional,
-        "force_balance": _balance([applied, force, *supports.values(), *([frictional["friction_force"]] if frictional else [])]),
+        "force_balance": _balance(forces),
     }
 
 
@@ -62,8 +63,8 @@ def friction_quantities(u, fields):
     """With friction (:mod:`.friction`): ``friction_force`` ∫_Γ_C s_t, the tangential force the foundation
     exerts on the body (s_t the law's tangential traction); ``slip_length``/``slip_area`` and
     ``stick_length``/``stick_area``, the measures of the parts of the contact zone {p > 0} where the slip
-    increment exceeds the regularisation's slip length ε_r (u_n − g_0)_+ (there |s_t| > F/√2) and where it
-    does not (as ε_r → 0 they tend to Coulomb's slip and stick zones); ``max_slip`` the largest nodal |Δu_t|
+    increment exceeds the regularisation's slip length ε_r (u_n − g_0)_+ (there |s_t| = F: Coulomb's slip) and
+    where it does not (|s_t| < F: the stick spring) (as ε_r → 0 they tend to Coulomb's slip and stick zones); ``max_slip`` the largest nodal |Δu_t|
     (a lumped projection on Γ_C)."""
     comm, law = fields.domain.comm, fields.friction
     n = ufl.FacetNormal(fields.domain.mesh)
