@@ -12,9 +12,9 @@ groups (names become boundary groups):
     free      the rest of the sphere                       (traction free)
     body      the cells (two volumes, split by the plane z = Z_C)
 
-As in meshes/hertz3d.py the OCC sphere is built with its axis along x, so that its poles (±R, 0, R) lie on
-the clamped edge, far from the contact point; the size is H_MIN within X_FINE of the contact point,
-growing with slope GROWTH up to H_MAX, and the nodes are jittered (gmsh_common.jitter_nodes) so that
+Built by gmsh_common.lower_ball, as meshes/hertz3d.py: the OCC sphere has its axis along x, so that its
+poles (±R, 0, R) lie on the clamped edge, far from the contact point; the size is H_MIN within X_FINE of
+the contact point, growing with slope GROWTH up to H_MAX, and the nodes are jittered (gmsh_common.jitter_nodes) so that
 refinement is the same on any number of ranks. H_MIN = R/100 ≈ a/10 for the contact radius a ≈ 0.1 R of the
 case (the stick radius c ≈ 0.8 a is then resolved by about eight cells).
 
@@ -24,8 +24,7 @@ import math
 import sys
 from pathlib import Path
 
-import gmsh
-from gmsh_common import generate_and_write, jitter_nodes, name_groups
+from gmsh_common import lower_ball
 
 R = 1.0
 X_C = 0.5 * R                          # the contact group is the cap within this distance of the z-axis
@@ -38,52 +37,9 @@ JITTER = 0.01 * H_MIN                  # random node offsets (gmsh_common.jitter
 OUT = Path(__file__).resolve().parent.parent / "nc_dolfinx" / "cases" / (Path(__file__).stem + ".msh")
 
 
-def half_ball():
-    """The volumes (below and above z = Z_C) and the boundary surfaces by group name."""
-    occ = gmsh.model.occ
-    ball = occ.addSphere(0, 0, R, R)
-    occ.rotate([(3, ball)], 0, 0, R, 0, 1, 0, math.pi / 2)  # poles onto the x-axis through the centre
-    half = occ.addBox(-R, 0, 0, 2 * R, R, R)
-    (body,), _ = occ.intersect([(3, ball)], [(3, half)])
-    cut = occ.addRectangle(-R, 0, Z_C, 2 * R, R)
-    pieces, _ = occ.fragment([body], [(2, cut)])
-    occ.synchronize()
-    volumes = [tag for dim, tag in pieces if dim == 3]
-    groups = {"top": [], "symmetry": [], "contact": [], "free": []}
-    for dim, tag in gmsh.model.getBoundary([(3, v) for v in volumes], oriented=False):
-        x, y, z = gmsh.model.occ.getCenterOfMass(dim, tag)
-        if abs(y) < 1e-9:
-            groups["symmetry"].append(tag)
-        elif abs(z - R) < 1e-9:
-            groups["top"].append(tag)
-        else:
-            groups["contact" if z < Z_C else "free"].append(tag)
-    assert all(groups.values()), groups
-    return volumes, groups
-
-
-def size_field():
-    """H_MIN within X_FINE of the contact point, growing with slope GROWTH up to H_MAX."""
-    field = gmsh.model.mesh.field
-    distance = field.add("MathEval")
-    field.setString(distance, "F", f"Min({H_MAX}, {H_MIN} + {GROWTH} * Max(0, Sqrt(x*x + y*y + z*z) - {X_FINE}))")
-    field.setAsBackgroundMesh(distance)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-
-
 def main(out=OUT):
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("hertz3d_half")
-        volumes, groups = half_ball()
-        name_groups(groups, volumes, dim=3)
-        size_field()
-        generate_and_write(out, dim=3, before_writing=lambda: jitter_nodes(JITTER))
-    finally:
-        gmsh.finalize()
+    lower_ball(out, "hertz3d_half", radius=R, x_min=-R, symmetry_planes={"symmetry": 1}, z_contact=Z_C,
+               h_min=H_MIN, h_max=H_MAX, x_fine=X_FINE, growth=GROWTH, jitter=JITTER)
 
 
 if __name__ == "__main__":
