@@ -277,6 +277,7 @@ def _row(number, domain, solution, est):
            "recoveries": stats.recoveries}
     if solution.fields.friction is not None:
         row["friction_passes"] = stats.friction_passes
+        row["friction_newton"] = stats.friction_newton
     row.update(quantities.solution_quantities(solution.u, solution.fields))
     row.update(quantities.errors(solution.u, solution.fields))
     if "h1_error" in row:  # (no index when u_h is exact: a linear u, say)

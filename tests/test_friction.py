@@ -28,7 +28,8 @@ def test_the_sheared_layer_is_exact(dim, mode, m_n):
     tolerance = 1e-10 if mode == "stick" else 1e-6
     assert result["nodal_error"] < tolerance
     assert result["friction_force"][0] == pytest.approx(result["exact_friction_force"], rel=tolerance)
-    assert np.abs(result["friction_force"][1:]).max() < 1e-10 * abs(result["exact_friction_force"])
+    # (the off-slip components: zero in the exact state; met to the solve's tolerance, a GMRES solve's in slip)
+    assert np.abs(result["friction_force"][1:]).max() < 1e-2 * tolerance * abs(result["exact_friction_force"])
     assert result["contact_resultant"] == pytest.approx(result["exact_resultant"], rel=tolerance)
     assert result[mode] == pytest.approx(result["base"], rel=1e-12)
     assert result["stick" if mode == "slip" else "slip"] == 0.0
@@ -133,3 +134,76 @@ def test_regularisation_default_and_limit():
         assert rows[eps_r]["max_slip"] == pytest.approx(0.8 * eps_r * depth, rel=1e-6)
     # (the clamp's displacement holds the first pre-slip, so the second's shear differs by ~ s/(γH) ≈ 1e-5)
     assert rows[EPS_R / 10]["friction_force"][0] == pytest.approx(rows[EPS_R]["friction_force"][0], rel=1e-4)
+
+
+def test_the_consistent_jacobian_is_the_derivative_of_the_residual():
+    """The Jacobian of the solver's Newton finish (solver/fixed_point.py), K + j_n' + (d/du) j_t with the bound
+    of u itself, against central differences of the residual along a smooth direction, at a solved state with
+    stick and slip zones (the square pressed by its weight, clamped on top): equal to 1e-8 (measured 9e-13:
+    the law is piecewise polynomial away from its kinks). The frozen-bound Jacobian of the passes misses the
+    bound's dependence on u_n (measured 2.5e-3 off): so the test can tell them apart."""
+    import ufl
+    from petsc4py import PETSc
+    from dolfinx import fem
+    import dolfinx.fem.petsc as fem_petsc
+    from nc_dolfinx import dolfinx_versions as versions
+    from nc_dolfinx.physics.forms import normal_compliance_forms
+    data = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [8, 8], "dirichlet": ["top"],
+                     "neumann": ["left", "right"], "contact": ["bottom"]},
+            "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]},
+            "contact": {"c_n": 100.0, "m_n": 2.0, "friction": 0.3}}
+    problem = nc.Problem.from_dict(data, "pressed-square")
+    solution = nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    u, fields = solution.u, solution.fields
+    zones = nc.solution_quantities(u, fields)
+    assert zones["stick_length"] > 0.1 and zones["slip_length"] > 0.1
+    forms = normal_compliance_forms(u, fields)
+
+    def own_bound(form):
+        return fem.form(ufl.replace(form, {forms.frozen: u}))
+
+    def matrix(form):
+        A = fem_petsc.assemble_matrix(form)
+        A.assemble()
+        return A
+
+    residual = own_bound(forms.contact_residual)
+
+    def residual_at(w):
+        u.x.array[:] = w
+        vec = fem_petsc.assemble_vector(residual)
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return vec
+
+    consistent, frozen = matrix(fem.form(forms.consistent_jacobian)), matrix(own_bound(forms.contact_jacobian))
+    direction = fem.Function(u.function_space)
+    direction.interpolate(lambda x: np.vstack([np.sin(7 * x[0] + 1), np.cos(5 * x[1]) + x[0]]))
+    state, v = u.x.array.copy(), direction.x.array
+    h = 1e-6 * np.abs(state).max() / np.abs(v).max()
+    difference = (residual_at(state + h * v) - residual_at(state - h * v)) / (2 * h)
+    u.x.array[:] = state
+
+    def misfit(A):
+        product = A.createVecLeft()
+        A.mult(versions.petsc_vec(direction), product)
+        return (product - difference).norm() / difference.norm()
+
+    assert misfit(consistent) < 1e-8
+    assert misfit(frozen) > 1e-4
+
+
+def test_the_newton_finish_replaces_the_passes_tail():
+    """The pressed square on two adaptive levels with and without the consistent Newton finish
+    (-friction_newton false): the same u_h (η to 1e-9), fewer passes of the fixed point with it, and on the
+    nested level it is used (its warm start goes to Newton at once)."""
+    data = {"mesh": {"rectangle": [[0, 0], [1, 1]], "cells": [8, 8], "dirichlet": ["top"],
+                     "neumann": ["left", "right"], "contact": ["bottom"]},
+            "material": {"E": 1.0, "nu": 0.3}, "loads": {"f": ["0", "-0.5"]},
+            "contact": {"c_n": 100.0, "m_n": 2.0, "friction": 0.3}, "adapt": {"levels": 2, "refine": "adaptive"}}
+    runs = {flag: nc.adapt(nc.Problem.from_dict(dict(data, solver={"petsc_options": {"friction_newton": flag}}),
+                                                  f"newton-{flag}")).history for flag in ("true", "false")}
+    for on, off in zip(runs["true"], runs["false"]):
+        assert on["eta"] == pytest.approx(off["eta"], rel=1e-9)
+        assert off["friction_newton"] == 0
+    assert sum(r["friction_passes"] for r in runs["true"]) < sum(r["friction_passes"] for r in runs["false"])
+    assert runs["true"][-1]["friction_newton"] >= 1

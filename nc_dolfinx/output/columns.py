@@ -55,6 +55,7 @@ COLUMNS = {
                     "(2D; stick_area in 3D)",
     "max_slip": "with friction: max of the nodal slip increment |Δu_t| on Γ_C (lumped projection)",
     "friction_passes": "with friction: passes of the fixed point on the friction bound (see Solver)",
+    "friction_newton": "with friction: of newton_iterations, the steps of the consistent Newton finish (see Solver)",
     "max_penetration": "max of the nodal penetration (u_hn − g_0)_+ >= 0 on Γ_C",
     "applied_load_x": "x component of the resultant of the given loads, ∫_Ω f + ∫_Γ_N g (_y, _z alike)",
     "reaction_GROUP_x": "x component of the force the Dirichlet or symmetry group GROUP exerts on the body "

@@ -72,6 +72,8 @@ class NonlinearForms:
     previous: object = None
     frozen: object = None
     epsilon: object = None  # the regularisation's ε_r (a Constant: the solver's continuation sets it)
+    # The consistent Jacobian of the Γ_C residual, the bound F(u), ε(u) of u itself (ū = u): not symmetric
+    consistent_jacobian: ufl.Form = None
 
     @property
     def contact_residual(self):
@@ -107,6 +109,8 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
         pieces.j_t = ufl.derivative(frictional_energy, u, v)
         pieces.j_t_jacobian = ufl.derivative(pieces.j_t, u, du)
         pieces.previous, pieces.frozen, pieces.epsilon = law.previous, law.frozen, law.epsilon
+        consistent = ufl.replace(pieces.j_n + pieces.j_t, {law.frozen: u})
+        pieces.consistent_jacobian = ufl.derivative(consistent, u, du)
     mass = c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC
     # (the law is linear where in contact: see NonlinearForms. Not with friction: the creeping check these forms
     # enable took the stick zone's creeping for the contact zone's, 121 Newton steps instead of 65 on 1e4-1-mu0.3

@@ -29,9 +29,10 @@ the convex, C¹ energy
     Π(u) + ∫_Γ_C F̄ ψ_ε̄(Δu_t(u)),
 
 whose gradient is (7) plus j_t(u, v) = −∫_Γ_C σ_t(u) · v_t with the frozen bound: the solver of (7) (SPD
-Jacobian, energy line search) solves it unchanged; then ū = u and again, until the residual with the bound
-of u itself meets the solver's tolerance (:mod:`nc_dolfinx.solver.newton`). It contracts for small enough
-μ (the uniqueness condition of those proofs); the first pass from u = 0 is the frictionless solve (F̄ = 0).
+Jacobian, energy line search) solves it unchanged; then ū = u and again. It contracts for small enough μ
+(the uniqueness condition of those proofs); the first pass from u = 0 is the frictionless solve (F̄ = 0).
+Once a pass is near the solution, Newton's method on the full residual (the bound of u itself, the
+consistent and non-symmetric Jacobian) finishes the increment (:mod:`nc_dolfinx.solver.fixed_point`).
 
 The tangential direction. Δu_t and the test function's v_t are projections on the plane normal to N, the
 normalised P1 average of the facet normals of Γ_C at each vertex (:func:`vertex_normal`). With the facet

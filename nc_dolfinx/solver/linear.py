@@ -45,6 +45,7 @@ OWN_DEFAULTS = {
     "roundoff_factor": 10.0,       # see _within_roundoff (0: the target alone ends a solve)
     "creeping_steps": 10,          # see _Creeping (0: never)
     "friction_passes": 100,        # the most passes of the fixed point on the friction bound (see _fixed_point)
+    "friction_newton": True,       # the fixed point's consistent Newton finish (see _consistent_newton)
 }
 
 # hypre's BoomerAMG, the iterative preset's preconditioner (cold and warm starts, 2D and 3D): classical AMG

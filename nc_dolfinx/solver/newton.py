@@ -49,6 +49,7 @@ class SolveStats:
     recoveries: str = ""            # fallbacks taken after a failed SNES solve, e.g. "refresh,continuation"
     pc_type: str = ""               # the preconditioner in force (cholesky, gamg, hypre, or the user's)
     friction_passes: int = 0        # passes of the fixed point on the friction bound (0: no friction)
+    friction_newton: int = 0        # of the Newton steps, those of the consistent Newton finish (fixed_point)
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
@@ -206,6 +207,7 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         self.j_n_jacobian = fem.form(closed_jacobian(forms.contact_jacobian))
         self.contact_energy = fem.form(forms.contact_energy)
         self.bilateral = (forms.bilateral_jacobian, forms.gap_load, forms.separation)
+        self.consistent = forms.consistent_jacobian  # (with friction: compiled when first used, FrictionFixedPoint)
 
     def _create_snes(self):
         """SNES and its KSP configured from the options (a PETSc error there, or in the rehearsal of the
