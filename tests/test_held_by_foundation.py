@@ -18,11 +18,12 @@ import json
 import numpy as np
 import pytest
 import sympy as sp
+from dolfinx import fem
 from mpi4py import MPI
 
 import nc_dolfinx as nc
 from conftest import ROOT, run
-from mpi.held_by_friction import block, sorted_nodal_values
+from mpi.held_by_friction import MU, block, sorted_nodal_values
 from nc_dolfinx.errors import InputError
 
 SCRIPT = ROOT / "tests" / "mpi" / "held_by_friction.py"
@@ -124,6 +125,35 @@ def test_friction_holds_nothing_unpressed():
     with pytest.raises(InputError) as err:
         nc.solve(nc.Problem.from_dict(raw), nc.build_domain(nc.Problem.from_dict(raw), MPI.COMM_WORLD))
     assert "translation along x; its friction does not hold it (contact.c_t = 0 where" in str(err.value)
+
+
+def test_loads_beyond_friction_are_named_before_newton():
+    """A shear beyond μ times the normal load slides the block off: the first pass's energy has no minimum
+    along the translation, refused with the ratio, which on the flat base is shear / (μ P) (the settled
+    pressure's resultant balances P to the settling's tolerance)."""
+    shear = 3.5
+    problem = block(2, shear=shear)
+    with pytest.raises(InputError) as err:
+        nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    message = str(err.value)
+    assert message.startswith("the body is free to move: translation along x; the loads pull it along the "
+                              "foundation with ")
+    assert "times the most its friction holds (contact.friction times the pressure)" in message
+    ratio = float(message.split(" with ")[1].split()[0])
+    assert ratio == pytest.approx(shear / (MU * P * 1.0), rel=5e-3)  # base length 1
+
+
+def test_the_sliding_motions_stick_at_the_previous_state():
+    """Δu_t is measured from the previous load state: a previous state translated along the base moves the
+    solution by the same translation (the elastic and normal energies do not see it), exactly."""
+    problem = block(2, shear=1.0)
+    domain = nc.build_domain(problem, MPI.COMM_WORLD)
+    start = nc.solve(problem, domain)
+    previous = fem.Function(start.u.function_space)
+    previous.x.array[:] = np.tile([0.01, 0.0], len(previous.x.array) // 2)
+    moved = nc.solve(problem, domain, previous_state=previous)
+    error = np.abs(moved.u.x.array - previous.x.array - start.u.x.array).max()
+    assert MPI.COMM_WORLD.allreduce(error, MPI.MAX) <= 1e-9 * np.abs(start.u.x.array).max()
 
 
 def test_a_symmetric_block_held_by_friction_is_its_half():

@@ -25,10 +25,11 @@ state: the body sticks where it was, Δu_t = 0 along them); only the others are,
 as possible along Γ_C (each made orthogonal to the τ in ∫_Γ_C ρ_t·τ_t, e.g. a rotation about the contact
 zone's middle instead of the body's), so that what settles is the normal part. Then, at the settled u,
 friction holds the τ only if ∫_Γ_C F (ρ_t·ρ_t) > 0 along each (F = c_t (u_n − g_0)_+^{m_t}, the bound that
-the solver's first pass freezes: without it the first Jacobian is singular along them), and two more
+the solver's first pass freezes: without it the first Jacobian is singular along them), and three more
 outcomes are refused:
 - nothing presses the body where they slide it (∫_Γ_C (u_n − g_0)_+ |ρ_t|² = 0);
-- the friction bound is zero where it is pressed (μ = 0 there, or c_t = 0).
+- the friction bound is zero where it is pressed (μ = 0 there, or c_t = 0);
+- the loads pull the body along them harder than friction holds it (:func:`_check_friction_limit`).
 """
 import copy
 
@@ -36,6 +37,7 @@ import numpy as np
 import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy import optimize
 
 import dolfinx.fem.petsc as fem_petsc
 from dolfinx import fem
@@ -75,7 +77,40 @@ def settle(u, fields, load_factor=1.0):
                          sliding_along.matrix(sliding_along.pressed_action))
     sliding_along.refuse(f"its friction does not hold it ({fields.friction.key} = 0 where the body is pressed)",
                          sliding_along.matrix(sliding_along.friction_action))
+    _check_friction_limit(sliding_along, fields.friction.key)
     return pressing @ a
+
+
+def _check_friction_limit(along, key):
+    """Refuse loads beyond what friction holds: along a sliding motion τ the first pass's energy (the bound
+    F̄ of the settled u frozen) grows like t (∫_Γ_C F̄ |τ_t| − λ L(τ)) as the body slides by t τ, so it has no
+    minimum if λ L(τ) > C(τ) = ∫_Γ_C F̄ |τ_t| for some τ. Searched as min C(τ) over λ L(τ) = 1 (convex; exact
+    for one sliding motion, Nelder–Mead over the others' 1–2 amplitudes in 3D); a τ found with C(τ) < 1 is
+    a witness, named in the error. (On a flat Γ_C, C of a translation is μ times the pressure's resultant,
+    which the settling has already balanced with the normal load: Coulomb's limit of the exact problem.)"""
+    load = along.load
+    if np.linalg.norm(load) == 0.0:
+        return
+    base = load / (load @ load)  # λ L(base) = 1
+    others = rigid.null_space(np.outer(load, load))  # λ L = 0 along them
+    if others.shape[1]:
+        found = optimize.minimize(lambda z: along.capacity(base + others @ z), np.zeros(others.shape[1]),
+                                  method="Nelder-Mead", options={"xatol": 1e-6 * np.linalg.norm(base), "fatol": 1e-9,
+                                                                 "initial_simplex": _simplex(others.shape[1], base)})
+        witness = base + others @ found.x
+    else:
+        witness = base
+    capacity = along.capacity(witness)
+    capacity = along.u.function_space.mesh.comm.bcast(capacity, root=0)  # one decision on every rank
+    if capacity < 1.0:
+        names = ", ".join(rigid.describe_all(rigid.readable(along.free @ witness[:, None]), along.centre, along.scale))
+        raise InputError(f"the body is free to move: {names}; the loads pull it along the foundation with {1 / capacity:.3g} "
+                         f"times the most its friction holds ({key} times the pressure): {HOLD}")
+
+
+def _simplex(n, base):
+    """Nelder–Mead's first simplex in n amplitudes: 0 and steps of |base| along each."""
+    return np.vstack([np.zeros(n), np.linalg.norm(base) * np.eye(n)])
 
 
 def _settle(along):
@@ -116,6 +151,13 @@ class _Motions:
             pressed = nc_forms.penetration(u, fields)
             self.tangent_action, self.pressed_action, self.friction_action = (
                 fem.form(weight * slide * dC) for weight in (1.0, pressed, friction.friction_bound(pressed, law)))
+            sliding = friction.tangential(self.direction, law.normal)
+            self.friction_capacity = fem.form(friction.friction_bound(pressed, law) * ufl.sqrt(ufl.dot(sliding, sliding)) * dC)
+
+    def capacity(self, a):
+        """∫_Γ_C F |ρ_t| at u as it is, ρ = Σ a_j ρ_j: the friction force's most work per unit of sliding along ρ."""
+        self.direction.x.array[:] = a @ self.modes
+        return self.u.function_space.mesh.comm.allreduce(fem.assemble_scalar(self.friction_capacity), MPI.SUM)
 
     def on(self, coefficients):
         """The same, along the motions Σ_j c_jl ρ_j (the columns of ``coefficients``, (m, l)): E, its
