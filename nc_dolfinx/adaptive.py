@@ -67,6 +67,8 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
         fields.friction.previous.x.array[:] = _on_mesh(previous_state, V).x.array
     steps = load_steps or settings["load_steps"]
     if initial is None and fields.free_motions is not None:  # held by the foundation alone along them
+        if fields.friction is not None:  # and by its friction along the sliding ones: stuck where it was
+            u.x.array[:] = fields.friction.previous.x.array
         settle(u, fields, 1.0 / steps)
     options = solver_options(settings["preset"], settings["petsc_options"], petsc_options)
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),

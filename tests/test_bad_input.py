@@ -198,6 +198,13 @@ CASES = [
     ("empty_gamma_d_gmsh", lambda m, t: [gmsh_problem(m, "interior_clamp")], "Γ_D (dirichlet) is empty"),
     ("no_gamma_d_block_slides", lambda m, t: ["block", *FAST, "--set", "mesh.dirichlet=[]"],
      "the body is free to move: translation along x; the foundation does not move under it"),
+    ("no_gamma_d_block_without_friction", lambda m, t: ["block", *FAST, "--set", "mesh.dirichlet=[]",
+                                                        "--set", "contact.friction=0"],
+     "the body is free to move: translation along x; its friction does not hold it (contact.friction = 0 where"),
+    ("no_gamma_d_block_sheared_off", lambda m, t: ["block", *FAST, "--set", "mesh.dirichlet=[]", "--set",
+                                                    "contact.friction=0.3", "--set", 'loads.g={top=["8","-10"]}'],
+     # 16 along x against μ = 0.3 times 40 down (the weight 10 · 2 and the top's 10 · 2)
+     "the body is free to move: translation along x; the loads pull it along the foundation with 1.33 times"),
     ("empty_gamma_c_gmsh", lambda m, t: [gmsh_problem(m, "interior_base")], "Γ_C (contact) is empty"),
     ("empty_gamma_c_rectangle", lambda m, t: ["block", *FAST, "--set", "mesh.contact=[]"],
      "Γ_C (contact) is empty"),
@@ -378,7 +385,8 @@ MPI_CASES = ["unknown_group_rectangle", "m_n_below_1", "snes_divergence", "mesh_
              "facet_in_two_groups", "c_n_negative_on_gamma_c", "bad_option_value", "unused_petsc_option",
              "quad_mesh", "m_n_above_3_in_3d", "symmetry_not_planar", "hexahedral_mesh", "empty_gamma_c_box",
              "ksp_type_unknown", "snes_rtol_not_a_number", "mat_solver_type_not_built", "u_D_not_finite",
-             "u_D_3d_roller_and_loads_pull_off", "no_gamma_d_block_slides", "step_reaches_bad_material"]
+             "u_D_3d_roller_and_loads_pull_off", "no_gamma_d_block_slides", "step_reaches_bad_material",
+             "no_gamma_d_block_sheared_off"]
 
 
 @pytest.mark.parametrize("name", MPI_CASES)

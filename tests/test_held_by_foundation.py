@@ -7,14 +7,26 @@ the strain uniform (Hooke's law inverted with sympy below), and the foundation's
 penetration d = (p / c_n)^{1/m_n} beyond the gap g_0. The exact u is linear, so u_h equals it at the
 nodes up to the solver's tolerance — for m_n = 1, 1.5 and 3 (whose law has no stiffness at all at a
 cold start), with and without a gap, in 2D and 3D.
+
+Without the symmetry planes, friction holds the motions that slide the block along the foundation
+(tests/mpi/held_by_friction.py): refused without friction or with μ = 0, solved with μ > 0 on 1, 2 and 3
+ranks, where the friction force balances the shear; under a symmetric load the block equals its half cut by
+a symmetry plane.
 """
+import json
+
 import numpy as np
 import pytest
 import sympy as sp
+from dolfinx import fem
 from mpi4py import MPI
 
 import nc_dolfinx as nc
+from conftest import ROOT, run
+from mpi.held_by_friction import MU, block, sorted_nodal_values
 from nc_dolfinx.errors import InputError
+
+SCRIPT = ROOT / "tests" / "mpi" / "held_by_friction.py"
 
 E, NU, P, C_N = 1.0e3, 0.3, 10.0, 1.0e4
 
@@ -80,3 +92,102 @@ def test_what_the_foundation_cannot_hold_is_named_before_newton(change, expected
     with pytest.raises(InputError) as err:
         nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
     assert f"the body is free to move: {expected}" in str(err.value)
+
+
+@pytest.mark.parametrize("dim, friction, expected", [
+    (2, None, "translation along x; the foundation does not move under it (a frictionless foundation holds only "
+              "what moves it normally)"),
+    (2, 0.0, "translation along x; its friction does not hold it (contact.friction = 0 where the body is pressed)"),
+    (3, 0.0, "rotation about z, translation along x, translation along y; its friction does not hold it "
+             "(contact.friction = 0 where the body is pressed)"),
+])
+def test_what_friction_cannot_hold_is_named_before_newton(dim, friction, expected):
+    """No symmetry plane: the sliding motions are refused without friction and with μ = 0 everywhere."""
+    problem = block(dim, friction, shear=1.0)
+    with pytest.raises(InputError) as err:
+        nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    assert str(err.value).startswith(f"the body is free to move: {expected}: hold it with")
+
+
+def test_friction_holds_nothing_unpressed():
+    """Friction on, the vertical motion held by a roller pressing the top down: at the cold start nothing
+    presses the base yet (u = 0), so no friction bound exists for the solver's first pass: refused, naming
+    the sliding motion; the same with the bound given as c_t names that key."""
+    raw = block(2).raw
+    raw["mesh"]["dirichlet"], raw["mesh"]["neumann"] = ["top"], ["left", "right"]
+    raw["loads"] = {"u_D": ["free", "-0.01"]}
+    with pytest.raises(InputError) as err:
+        nc.solve(nc.Problem.from_dict(raw), nc.build_domain(nc.Problem.from_dict(raw), MPI.COMM_WORLD))
+    assert "free to move: translation along x; nothing presses the body onto the foundation, whose friction" \
+        in str(err.value)
+    raw = block(2, friction=None, shear=1.0).raw
+    raw["contact"] |= {"c_t": "0", "m_t": 1.5}
+    with pytest.raises(InputError) as err:
+        nc.solve(nc.Problem.from_dict(raw), nc.build_domain(nc.Problem.from_dict(raw), MPI.COMM_WORLD))
+    assert "translation along x; its friction does not hold it (contact.c_t = 0 where" in str(err.value)
+
+
+def test_loads_beyond_friction_are_named_before_newton():
+    """A shear beyond μ times the normal load slides the block off: the first pass's energy has no minimum
+    along the translation, refused with the ratio, which on the flat base is shear / (μ P) (the settled
+    pressure's resultant balances P to the settling's tolerance)."""
+    shear = 3.5
+    problem = block(2, shear=shear)
+    with pytest.raises(InputError) as err:
+        nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    message = str(err.value)
+    assert message.startswith("the body is free to move: translation along x; the loads pull it along the "
+                              "foundation with ")
+    assert "times the most its friction holds (contact.friction times the pressure)" in message
+    ratio = float(message.split(" with ")[1].split()[0])
+    assert ratio == pytest.approx(shear / (MU * P * 1.0), rel=5e-3)  # base length 1
+
+
+def test_the_sliding_motions_stick_at_the_previous_state():
+    """Δu_t is measured from the previous load state: a previous state translated along the base moves the
+    solution by the same translation (the elastic and normal energies do not see it), exactly."""
+    problem = block(2, shear=1.0)
+    domain = nc.build_domain(problem, MPI.COMM_WORLD)
+    start = nc.solve(problem, domain)
+    previous = fem.Function(start.u.function_space)
+    previous.x.array[:] = np.tile([0.01, 0.0], len(previous.x.array) // 2)
+    moved = nc.solve(problem, domain, previous_state=previous)
+    error = np.abs(moved.u.x.array - previous.x.array - start.u.x.array).max()
+    assert MPI.COMM_WORLD.allreduce(error, MPI.MAX) <= 1e-9 * np.abs(start.u.x.array).max()
+
+
+def test_a_symmetric_block_held_by_friction_is_its_half():
+    """Vertical load only, a mirror-symmetric mesh: friction holds the block's horizontal position (the
+    solution is then symmetric, u_x = 0 on x = 1/2) and the block equals its half cut by the symmetry plane
+    x = 1/2 at every common node; the friction force that restrains the Poisson expansion cancels over the
+    whole base, while on the half it balances the plane's reaction."""
+    full, half = (nc.adapt(block(2, half=cut)) for cut in (False, True))
+    (x_full, u_full), (x_half, u_half) = (sorted_nodal_values(r.final.u, MPI.COMM_WORLD) for r in (full, half))
+    if MPI.COMM_WORLD.rank == 0:
+        right = x_full[:, 0] >= 0.5 - 1e-12
+        np.testing.assert_allclose(x_full[right], x_half, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(u_full[right], u_half, rtol=0, atol=1e-9 * np.abs(u_half).max())
+    restraint = half.history[-1]["friction_force"][0]
+    assert restraint == pytest.approx(-half.history[-1]["reaction_left"][0], rel=1e-9)
+    assert abs(restraint) > 1e-2 * P  # friction does act,
+    assert abs(full.history[-1]["friction_force"][0]) < 1e-9 * abs(restraint)  # and cancels over the base
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_friction_holds_the_sheared_block_on_any_ranks(dim):
+    """Sheared (and in 3D twisted) below μ times the pressure, held by friction alone: the friction force
+    balances the applied shear, the pressure's resultant the vertical load, and 1, 2 and 3 ranks give the
+    same nodal values."""
+    outputs = [run([SCRIPT, dim], n) for n in (1, 2, 3)]
+    for out in outputs:
+        assert out.returncode == 0, out.stderr[-3000:]
+    results = [json.loads(out.stdout.strip().splitlines()[-1]) for out in outputs]
+    for result in results:
+        applied = np.array(result["applied_load"])
+        assert result["force_balance"] < 1e-9
+        np.testing.assert_allclose(result["friction_force"][:-1], -applied[:-1], rtol=0, atol=1e-9 * abs(applied[-1]))
+        assert abs(applied[0]) > 0.05 * abs(applied[-1])  # a real shear
+        assert result["contact_resultant"] == pytest.approx(-applied[-1], rel=1e-9)
+    serial = np.array(results[0]["nodal_values"])
+    for parallel in results[1:]:
+        np.testing.assert_allclose(parallel["nodal_values"], serial, rtol=0, atol=1e-9 * np.abs(serial).max())

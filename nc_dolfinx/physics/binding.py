@@ -192,7 +192,8 @@ def _friction_law(problem, fields):
         c_t, m_t = to_ufl(contact["c_t"], msh, params), fem.Constant(msh, PETSc.ScalarType(contact["m_t"]))
     epsilon = fem.Constant(msh, PETSc.ScalarType(contact["slip_regularisation"]))
     return friction.FrictionLaw(c_t, m_t, epsilon, fem.Function(V, name="previous_displacement"), fem.Function(V),
-                                friction.vertex_normal(V, fields.ds_of("contact")))
+                                friction.vertex_normal(V, fields.ds_of("contact")),
+                                "contact.friction" if contact["friction"] is not None else "contact.c_t")
 
 
 def _name(domain, group_id):

@@ -58,13 +58,14 @@ class FrictionLaw:
     """The friction law's data on one mesh: F = c_t (u_n − g_0)_+^{m_t} (UFL, a Constant), the regularisation
     ε_r (a Constant), and three P1 vector functions: ``previous`` u at the previous load state (Δu = u −
     previous), ``frozen`` the iterate ū whose bound F(ū), ε(ū) the solver's inner problem uses, and
-    ``normal`` N (:func:`vertex_normal`)."""
+    ``normal`` N (:func:`vertex_normal`); ``key`` the problem's key that gives the bound (for messages)."""
     c_t: object
     m_t: object
     epsilon: object
     previous: fem.Function
     frozen: fem.Function
     normal: fem.Function
+    key: str = "contact.friction"
 
 
 def tangential(w, N):

@@ -59,12 +59,14 @@ def free_motions(gram):
     return readable(null_space(gram))
 
 
-def null_space(matrix):
+def null_space(matrix, complement=False):
     """An orthonormal basis (columns) of the null space of a symmetric positive semi-definite matrix: its
-    eigenvalues up to NULL_TOLERANCE times the largest (all of it for the zero matrix)."""
+    eigenvalues up to NULL_TOLERANCE times the largest (all of it for the zero matrix); ``complement``: of
+    its orthogonal complement instead (the other eigenvalues)."""
     values, vectors = np.linalg.eigh(matrix)
     largest = max(float(values.max()), 0.0) if len(values) else 0.0
-    return vectors[:, values <= NULL_TOLERANCE * largest] if largest > 0 else np.eye(len(matrix))
+    null = values <= NULL_TOLERANCE * largest if largest > 0 else np.ones(len(values), dtype=bool)
+    return vectors[:, ~null if complement else null]
 
 
 def readable(motions):
