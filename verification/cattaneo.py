@@ -92,7 +92,7 @@ def measure(problem, domain=None):
     out = {"P": P, "Q": Q, "Q_top": abs(row["reaction_top"][0]), "a": a, "a_hertz": hertz["half_width"],
            "c": c, "c_over_a": c / a, "c_over_a_cm": math.sqrt(max(1 - ratio, 0.0)), "Q_over_muP": ratio,
            "mu": mu, "E": E, "nu": nu, "seconds": seconds, "dofs": row["dofs"],
-           "passes": row.get("friction_passes"), "P1": -first["reaction_top"][1],
+           "passes": row.get("friction_passes"), "newton": row.get("friction_newton"), "P1": -first["reaction_top"][1],
            "c1": first["stick_length"] / 2, "a1": first["contact_length"] / 2,
            "Q1": abs(first["friction_force"][0]), "max_slip": row["max_slip"]}
     out["profile"] = traction_profile(result.final.solution)

@@ -43,7 +43,8 @@ def measures(row, problem):
     return {"P": P, "Q": Q, "Q/muP": ratio, "a": a, "a_hertz": a_hertz, "a_error": a / a_hertz - 1.0,
             "contact_area": row["contact_area"], "stick_area": row["stick_area"], "slip_area": row["slip_area"],
             "c": c, "c/a": c / a, "c/a_mindlin": mindlin, "c/a_error": (c / a) / mindlin - 1.0 if mindlin else None,
-            "max_slip": row["max_slip"], "friction_passes": row["friction_passes"]}
+            "max_slip": row["max_slip"], "friction_passes": row["friction_passes"],
+            "friction_newton": row["friction_newton"]}
 
 
 def run(overrides=(), comm=MPI.COMM_WORLD):

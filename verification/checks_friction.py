@@ -25,13 +25,22 @@ SPHERE_A, SPHERE_C = 0.05, (-0.09, 0.0)  # |a/a_Hertz − 1|, (c/a)/CM − 1 (th
 LAYER_DOF_RATIO = 3.0     # manufactured_friction_layer: uniform needs this many times adaptive's dofs (measured ~7)
 
 
+PASSES = "passes + Newton"  # the solver's cost: passes of the fixed point, steps of its consistent Newton finish
+
+
+def cost(passes, newton):
+    """A table cell: the fixed point's passes and the Newton finish's steps (runs from before the finish:
+    passes only)."""
+    return str(passes) if newton is None else f"{passes} + {newton}"
+
+
 def friction_exact(data):
     s = Section("friction_exact", TITLES["friction_exact"])
     rows = []
     for layer in data["layers"]:
         force = layer["friction_force"][0] / layer["exact_friction_force"] - 1
         rows.append([f"{layer['dim']}D", layer["mode"], f"{layer['m_n']:g}", f"{layer['nodal_error']:.2e}",
-                     f"{force:+.2e}", f"{layer['eta']:.2e}", f"{layer[layer['mode']]:.4f}", layer["friction_passes"],
+                     f"{force:+.2e}", f"{layer['eta']:.2e}", f"{layer[layer['mode']]:.4f}", cost(layer["friction_passes"], layer.get("friction_newton")),
                      f"{layer['force_balance']:.1e}"])
         name = f"{layer['dim']}D {layer['mode']}, m_n = {layer['m_n']:g}"
         tolerance = NODAL_RTOL[layer["mode"]]
@@ -41,7 +50,7 @@ def friction_exact(data):
                 f"< {ETA_EXACT:g}", layer["eta"] < ETA_EXACT * abs(layer["exact_friction_force"]))
     s.tables.append((f"exact linear states of the regularised law (ε_r = {data['eps_r']:g}); nodal error relative to "
                      "the penetration d",
-                     ["dim", "mode", "m_n", "nodal error", "force − exact", "η", "stick/slip measure", "passes",
+                     ["dim", "mode", "m_n", "nodal error", "force − exact", "η", "stick/slip measure", PASSES,
                       "balance"], rows))
     s.check("μ = 0 against the frictionless problem", f"max |Δu|/max |u| = {data['zero_friction']:.1e}",
             f"<= {ZERO_FRICTION:g}", data["zero_friction"] <= ZERO_FRICTION)
@@ -55,13 +64,13 @@ def _uniform_table(rows, dim):
         force = abs(r["friction_force"][0] / EXACT_FORCE[dim] - 1)
         table.append([r["level"], r["dofs"], f"{r['h1_error']:.4e}", f"{r['eta']:.4e}",
                       f"{r['eta'] / r['h1_error']:.3f}", f"{(r['eta_3'] / r['eta']) ** 2:.1e}", f"{force:.2e}",
-                      f"{r[measure]:.4f}", r["friction_passes"]])
+                      f"{r[measure]:.4f}", cost(r["friction_passes"], r.get("friction_newton"))])
     return table
 
 
 def friction_manufactured(data):
     s = Section("friction_manufactured", TITLES["friction_manufactured"])
-    headers = ["level", "dofs", "‖u − u_h‖_1", "η", "η/‖e‖_1", "η_3²/η²", "|F_t/F_t,exact − 1|", "stick", "passes"]
+    headers = ["level", "dofs", "‖u − u_h‖_1", "η", "η/‖e‖_1", "η_3²/η²", "|F_t/F_t,exact − 1|", "stick", PASSES]
     for dim in (2, 3):
         rows = data[f"uniform{dim}"]
         s.tables.append((f"{dim}D uniform refinement", headers, _uniform_table(rows, dim)))
@@ -105,9 +114,9 @@ def cattaneo(data):
     s = Section("cattaneo", TITLES["cattaneo"])
     c = data["cylinder"]
     s.tables.append(("cylinder (2D, plane strain): pressed without friction, then moved sideways with μ = "
-                     f"{c['mu']:g}", ["P", "Q", "Q/(μP)", "a", "a Hertz", "c/a", "CM (1 − Q/μP)^½", "passes"],
+                     f"{c['mu']:g}", ["P", "Q", "Q/(μP)", "a", "a Hertz", "c/a", "CM (1 − Q/μP)^½", PASSES],
                      [[f"{c['P']:.4f}", f"{c['Q']:.4f}", f"{c['Q_over_muP']:.3f}", f"{c['a']:.5f}",
-                       f"{c['a_hertz']:.5f}", f"{c['c_over_a']:.3f}", f"{c['c_over_a_cm']:.3f}", c["passes"]]]))
+                       f"{c['a_hertz']:.5f}", f"{c['c_over_a']:.3f}", f"{c['c_over_a_cm']:.3f}", cost(c["passes"], c.get("newton"))]]))
     error = c["a"] / c["a_hertz"] - 1
     s.check("cylinder: contact half-width against Hertz", f"{100 * error:+.2f} %", f"within ±{100 * CYLINDER_A:g} %",
             abs(error) <= CYLINDER_A)
@@ -116,9 +125,9 @@ def cattaneo(data):
             abs(gap) <= CYLINDER_C)
     rows = data["sphere"]
     s.tables.append(("sphere (3D, half ball): the sideways increments after the frictionless pressing",
-                     ["increment", "P", "Q/(μP)", "a", "a Hertz", "c/a", "CM (1 − Q/μP)^⅓", "passes"],
+                     ["increment", "P", "Q/(μP)", "a", "a Hertz", "c/a", "CM (1 − Q/μP)^⅓", PASSES],
                      [[r["increment"], f"{r['P']:.4f}", f"{r['Q/muP']:.3f}", f"{r['a']:.5f}", f"{r['a_hertz']:.5f}",
-                       f"{r['c/a']:.3f}", f"{r['c/a_mindlin']:.3f}", r["friction_passes"]] for r in rows]))
+                       f"{r['c/a']:.3f}", f"{r['c/a_mindlin']:.3f}", cost(r["friction_passes"], r.get("friction_newton"))] for r in rows]))
     worst_a = max(abs(r["a_error"]) for r in rows)
     s.check("sphere: contact radius against Hertz", f"max |a/a_H − 1| = {100 * worst_a:.2f} %",
             f"<= {100 * SPHERE_A:g} %", worst_a <= SPHERE_A)

@@ -30,7 +30,7 @@ CONFIG = {
              "friction_manufactured": {"levels_2d": 5, "levels_3d": 3, "adaptive_levels_2d": 12, "layer_levels": 6}},
 }
 FRICTION_KEYS = ("friction_force", "stick_length", "slip_length", "stick_area", "slip_area", "max_slip",
-                 "friction_passes")
+                 "friction_passes", "friction_newton")
 
 
 def row_of(row):

@@ -90,6 +90,7 @@ def outcome(result, dim, mode, m_n):
             "stick": row[f"stick_{measure}"], "slip": row[f"slip_{measure}"], "base": base,
             "max_slip": row["max_slip"], "exact_slip": slip, "force_balance": row["force_balance"],
             "eta": row["eta"], "h1_error": row["h1_error"], "friction_passes": row["friction_passes"],
+            "friction_newton": row["friction_newton"],
             "reaction_top": row["reaction_top"], "u": result.final.u.x.array[:n * dim].tolist(),
             "x": x[:n].tolist()}
 
