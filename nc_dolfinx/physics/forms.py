@@ -109,7 +109,7 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
         pieces.j_t = ufl.derivative(frictional_energy, u, v)
         pieces.j_t_jacobian = ufl.derivative(pieces.j_t, u, du)
         pieces.previous, pieces.frozen, pieces.epsilon = law.previous, law.frozen, law.epsilon
-        consistent = ufl.replace(pieces.j_n + pieces.j_t, {law.frozen: u})
+        consistent = ufl.replace(pieces.contact_residual, {law.frozen: u})
         pieces.consistent_jacobian = ufl.derivative(consistent, u, du)
     mass = c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC
     # (the law is linear where in contact: see NonlinearForms. Not with friction: the creeping check these forms
