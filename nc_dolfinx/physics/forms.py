@@ -66,7 +66,8 @@ class NonlinearForms:
     # With friction (fields.friction, :mod:`.friction`): j_t(u, v) = −∫_Γ_C σ_t(u)·v_t with the bound F(ū),
     # ε(ū) of the iterate ``frozen`` ū, the derivative of ∫_Γ_C F̄ ψ_ε̄(Δu_t) (added to contact_energy), and
     # u at the previous load state (Δu_t = (u − previous)_t). The solver moves ū to u until they agree
-    # (the fixed point), and ``previous`` on between its load increments.
+    # (the fixed point), and ``previous`` on between its load increments. j_t_jacobian is j_t's derivative
+    # stiffened along the slip (friction.slip_stiffening): the Jacobian of the passes' Newton steps.
     j_t: ufl.Form = None
     j_t_jacobian: ufl.Form = None
     previous: object = None
@@ -74,6 +75,7 @@ class NonlinearForms:
     epsilon: object = None  # the regularisation's ε_r (a Constant: the solver's continuation sets it)
     # The consistent Jacobian of the Γ_C residual, the bound F(u), ε(u) of u itself (ū = u): not symmetric
     consistent_jacobian: ufl.Form = None
+    slip_stiffening: ufl.Form = None
 
     @property
     def contact_residual(self):
@@ -82,7 +84,8 @@ class NonlinearForms:
 
     @property
     def contact_jacobian(self):
-        """Its Gateaux derivative in u (not symmetric with friction)."""
+        """Its Gateaux derivative in u; with friction that of the frozen bound's problem, stiffened along the
+        slip (:func:`~nc_dolfinx.physics.friction.slip_stiffening`)."""
         return self.j_n_jacobian if self.j_t is None else self.j_n_jacobian + self.j_t_jacobian
 
 
@@ -104,10 +107,12 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
     pieces = NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
     if fields.friction is not None:  # the frozen bound's inner problem (see physics.friction)
         law = fields.friction
-        frictional_energy = friction.dissipation(u, penetration(law.frozen, fields, n), law) * dC
+        bound = penetration(law.frozen, fields, n)
+        frictional_energy = friction.dissipation(u, bound, law) * dC
         pieces.contact_energy = pieces.contact_energy + frictional_energy
         pieces.j_t = ufl.derivative(frictional_energy, u, v)
         pieces.j_t_jacobian = ufl.derivative(pieces.j_t, u, du)
+        pieces.slip_stiffening = friction.slip_stiffening(u, du, v, bound, law) * dC
         pieces.previous, pieces.frozen, pieces.epsilon = law.previous, law.frozen, law.epsilon
         consistent = ufl.replace(pieces.contact_residual, {law.frozen: u})
         pieces.consistent_jacobian = ufl.derivative(consistent, u, du)

@@ -82,7 +82,7 @@ class Recoveries:
         s = self._soft_c_n_scale()
         if s >= 1.0:
             return False
-        original = (self.j_n, self.j_n_jacobian, self.contact_energy, self.bilateral)
+        original = {name: getattr(self, name) for name in self.CONTACT_FORMS}
         self._use_contact_forms(self.forms.with_c_n_scale(scale))
         start.copy(x)
         self.creeping_check = False  # (each stage runs to its end)
@@ -94,7 +94,8 @@ class Recoveries:
                     return False
                 s *= C_N_CONTINUATION_FACTOR
         finally:
-            self.j_n, self.j_n_jacobian, self.contact_energy, self.bilateral = original
+            for name, forms in original.items():
+                setattr(self, name, forms)
         self.force_refresh = True
         return self._snes_solve(x, stats, target)
 
