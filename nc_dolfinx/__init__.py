@@ -51,6 +51,7 @@ from .physics.binding import Fields, bind, build_domain
 from .physics.elasticity import lame, normal_stress, sigma
 from .physics.forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_pressure, penetration
 from .physics.friction import slip_increment, tangential_traction
+from .physics.slip_state import SlipState, spring_stretch
 from .physics.quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
 from .physics.reference import compare_with_reference, hertz_line_contact, hertz_sphere_contact
 from .problem.cases import case_names, case_path, case_titles
@@ -76,7 +77,7 @@ __all__ = [
     "AdaptSettings", "Level", "Result", "adapt",
     "solution_quantities", "errors", "integrate", "contact_projection",
     "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure", "penetration", "slip_increment",
-    "tangential_traction",
+    "tangential_traction", "SlipState", "spring_stretch",
     "assemble_cellwise", "patch_sum", "hertz_line_contact", "hertz_sphere_contact", "compare_with_reference",
     "InputError", "UnsupportedDolfinx", "quiet_compilers", "show_progress", "QUADRATURE_DEGREES",
     "dolfinx_versions",

@@ -12,6 +12,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field, fields as dataclass_fields
+from functools import partial
 
 from mpi4py import MPI
 
@@ -21,7 +22,7 @@ from . import dolfinx_versions as versions
 from .estimator import indicators, marking
 from .mesh import refinement
 from .mesh.balance import imbalance
-from .physics import forms, quantities
+from .physics import forms, quantities, slip_state
 from .physics.binding import bind
 from .problem import schema
 from .errors import InputError
@@ -49,9 +50,11 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     """Solve (7) for ``problem`` on ``domain``.
 
     ``initial``: a P1 displacement on this mesh or on its parent mesh (transferred exactly), the Newton
-    initial guess (default: zero). ``previous_state``: with friction, the displacement at the previous load
-    state (on this mesh or its parent), from which the slip increment Δu_t is measured (default: zero, the
-    unloaded body); with ``load_steps`` > 1 each increment moves it on. ``petsc_options``: PETSc options (no dash) over the problem's
+    initial guess (default: zero). ``previous_state``: with friction, the previous load state (on this mesh
+    or its parent), a :class:`~nc_dolfinx.physics.slip_state.SlipState` (as :func:`adapt` carries it: the
+    displacement from which the slip increment Δu_t is measured and the tangential traction there) or a
+    displacement alone (no traction); default: the unloaded body. With ``load_steps`` > 1 each
+    increment moves it on. ``petsc_options``: PETSc options (no dash) over the problem's
     ``[solver] petsc_options``. ``load_steps``, ``preconditioner_matrix``: over the problem's [solver].
     Raises InputError if SNES does not converge.
     """
@@ -64,7 +67,11 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
         u = _on_mesh(initial, V)
     u.name = "displacement"
     if fields.friction is not None and previous_state is not None:
-        fields.friction.previous.x.array[:] = _on_mesh(previous_state, V).x.array
+        state = previous_state if isinstance(previous_state, slip_state.SlipState) else \
+            slip_state.SlipState(previous_state, None)
+        fields.friction.previous.x.array[:] = _on_mesh(state.displacement, V).x.array
+        if state.traction is not None:
+            fields.friction.previous_traction.x.array[:] = _on_mesh(state.traction, V).x.array
     steps = load_steps or settings["load_steps"]
     if initial is None and fields.free_motions is not None:  # held by the foundation alone along them
         if fields.friction is not None:  # and by its friction along the sliding ones: stuck where it was
@@ -72,7 +79,8 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
         settle(u, fields, 1.0 / steps)
     options = solver_options(settings["preset"], settings["petsc_options"], petsc_options)
     solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
-                             options, preconditioner_matrix or settings["preconditioner_matrix"])
+                             options, preconditioner_matrix or settings["preconditioner_matrix"],
+                             None if fields.friction is None else partial(slip_state.advance, fields=fields))
     try:
         stats = solver.solve(steps)
     finally:
@@ -253,7 +261,8 @@ class _Loop:
             self._record(level)
             self.previous, self.times = solution.u, {}
             if solution.fields.friction is not None:  # the next state slips from here; a finer level from the same
-                self.state_start = solution.u if level.last_of_state else solution.fields.friction.previous
+                self.state_start = (slip_state.state_after(solution.u, solution.fields) if level.last_of_state
+                                    else slip_state.start_state(solution.fields.friction))
             if stop or not state.ends_step:
                 return domain, level
             t = time.perf_counter()

@@ -91,6 +91,29 @@ def test_the_slip_is_measured_from_the_previous_state():
     assert second["max_slip"] == pytest.approx(slip, rel=1e-8)
 
 
+def test_a_held_load_does_not_creep():
+    """A load path: step 1 shears the layer in stick to its exact state, step 2 holds the same load over 4
+    increments. The stick spring keeps its stretch from one state to the next (physics/slip_state.py): every
+    increment of step 2 ends at the same exact state, with no slip increment and the same friction force.
+    A spring stretched anew each increment (the law without its memory) slid the base by the pre-slip s
+    again in every increment of step 2."""
+    gamma, slip, e, depth, _ = exact_state(2, "stick", 1.0)
+    raw = dict(layer_problem(2, "stick", 1.0).raw)
+    raw["parameters"] = {"gamma": 0.0, "s": 0.0}
+    u = ["gamma*y + s", f"-{e!r}*y - {depth!r}"]
+    raw["loads"] = dict(raw["loads"], u_D=u)
+    raw["exact"] = {"u": u}
+    load = {"gamma": gamma, "s": slip}
+    raw["steps"] = [{"set": load}, {"set": load, "increments": 4}]
+    first, *held = nc.adapt(nc.Problem.from_dict(raw, "layer-held")).history
+    assert len(held) == 4 and first["stick_length"] == pytest.approx(2.0, rel=1e-12)
+    for row in held:
+        assert row["h1_error"] < 1e-10 * first["elastic_energy"] ** 0.5
+        assert row["max_slip"] < 1e-8 * slip
+        assert row["friction_force"][0] == pytest.approx(first["friction_force"][0], rel=1e-10)
+        assert row["stick_length"] == pytest.approx(2.0, rel=1e-12)
+
+
 def test_eta_3_is_the_residual_of_the_law():
     """On the exact sheared layer σ_t(u_h) ≠ 0 (the friction force), so the frictionless η_3 (‖σ_t‖ on Γ_C)
     would not vanish; the law's residual does."""

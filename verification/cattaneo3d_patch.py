@@ -3,15 +3,18 @@ solver's friction_quantities classify them (nc_dolfinx/physics/quantities.py), f
 verification/cattaneo3d.py and tests/test_cattaneo3d.py.
 
 At a point of a Γ_C facet the law's quantities are those of the UFL forms: u, u_prev (the previous load
-state, ``fields.friction.previous``) and the vertex normal N (``fields.friction.normal``) are linear in
-the facet; the penetration is (u·ν − g_0)_+ with ν the facet's outward normal and g_0 the sphere's height
-R − sqrt(R² − x² − y²) (the case's gap); Δu_t = (u − u_prev) − ((u − u_prev)·N) N, and the point slips
-where |Δu_t| > ε_r (u·ν − g_0)_+. Each facet is cut into n² similar triangles, each classified at its
+state, ``fields.friction.previous``), the spring's stretch w = (ε/F) σ_t,prev that carries the previous
+state's traction (nc_dolfinx/physics/slip_state.py; ε/F = ε_r/(μ c_n) is constant here, m_n = 1) and the
+vertex normal N (``fields.friction.normal``) are linear in the facet; the penetration is (u·ν − g_0)_+
+with ν the facet's outward normal and g_0 the sphere's height R − sqrt(R² − x² − y²) (the case's gap);
+s = (u − u_prev) − ((u − u_prev)·N) N − w, and the point slips where |s| > ε_r (u·ν − g_0)_+. Each facet is cut into n² similar triangles, each classified at its
 centroid: the areas then approximate the history's stick_area / slip_area (a quadrature of the same
 indicator), and the pieces draw the zones.
 """
 import numpy as np
 from mpi4py import MPI
+
+import nc_dolfinx as nc
 
 NO_CONTACT, STICK, SLIP = 0, 1, 2
 
@@ -29,7 +32,7 @@ def _vertex_maps(msh, V):
 
 
 def contact_facets(solution, comm=MPI.COMM_WORLD):
-    """On rank 0: arrays (facets, 3 vertices, 3) of the coordinates, u, u_prev and N at the vertices of the
+    """On rank 0: arrays (facets, 3 vertices, 3) of the coordinates, u, u_prev, N and w at the vertices of the
     owned Γ_C facets of every rank (None on the other ranks)."""
     fields, u = solution.fields, solution.u
     msh, V = fields.domain.mesh, u.function_space
@@ -45,11 +48,12 @@ def contact_facets(solution, comm=MPI.COMM_WORLD):
     def values(function):
         return function.x.array.reshape(-1, 3)[dofs]
 
-    local = (msh.geometry.x[to_geom[verts]], values(u), values(law.previous), values(law.normal))
+    local = (msh.geometry.x[to_geom[verts]], values(u), values(law.previous), values(law.normal),
+             values(nc.spring_stretch(u, fields)))
     gathered = comm.gather(local, root=0)
     if comm.rank != 0:
         return None
-    return tuple(np.concatenate([g[i] for g in gathered]) for i in range(4))
+    return tuple(np.concatenate([g[i] for g in gathered]) for i in range(5))
 
 
 def _subdivision(n):
@@ -70,7 +74,7 @@ def _subdivision(n):
 def classify(patch, R, epsilon_r, n=4):
     """(pieces (k, 3, 3) corner coordinates, state (k,) NO_CONTACT/STICK/SLIP, area (k,), traction ratio
     |σ_t|/F (k,)) of the n² sub-triangles of every facet of ``patch`` (:func:`contact_facets`)."""
-    X, U, P, N = patch
+    X, U, P, N, W = patch
     centroid_bary, corner_bary = _subdivision(n)
     normal = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
     area = 0.5 * np.linalg.norm(normal, axis=1)
@@ -78,10 +82,10 @@ def classify(patch, R, epsilon_r, n=4):
     centre = np.array([0.0, 0.0, R])
     normal *= np.sign(np.einsum("fi,fi->f", normal, X.mean(axis=1) - centre))[:, None]  # outward
     at = lambda A: np.einsum("sv,fvi->fsi", centroid_bary, A)  # (facets, n², 3)
-    x, u, du, nv = at(X), at(U), at(U - P), at(N)
+    x, u, du, nv, w = at(X), at(U), at(U - P), at(N), at(W)
     gap = R - np.sqrt(np.maximum(R ** 2 - x[..., 0] ** 2 - x[..., 1] ** 2, 0.0))
     penetration = np.maximum(np.einsum("fsi,fi->fs", u, normal) - gap, 0.0)
-    slip = du - np.einsum("fsi,fsi->fs", du, nv)[..., None] * nv
+    slip = du - np.einsum("fsi,fsi->fs", du, nv)[..., None] * nv - w
     size = np.linalg.norm(slip, axis=-1)
     length = epsilon_r * penetration
     state = np.where(penetration > 0, np.where(size > length, SLIP, STICK), NO_CONTACT)

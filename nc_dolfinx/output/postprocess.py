@@ -36,8 +36,8 @@ def _interpolate(space, expr, name):
 def friction_fields(u, fields):
     """With friction, on Γ_C (P1, lumped projections, 0 elsewhere): the law's tangential traction s_t (the
     foundation's tangential traction on the body), the slip increment Δu_t over the load increment, and
-    ``stick_slip``: 0 out of contact, 1 where the vertex sticks (|Δu_t| <= ε_r (u_n − g_0)_+), 2 where it
-    slips. Without friction: an empty list."""
+    ``stick_slip``: 0 out of contact, 1 where the vertex sticks (|s| <= ε_r (u_n − g_0)_+, s the spring's
+    slip :func:`~nc_dolfinx.physics.friction.spring_slip`), 2 where it slips. Without friction: an empty list."""
     law = fields.friction
     if law is None:
         return []
@@ -45,9 +45,10 @@ def friction_fields(u, fields):
     penetration = forms.penetration(u, fields, n)
     traction = contact_projection(friction.tangential_traction(u, penetration, law), fields, "tangential_traction")
     slip = contact_projection(friction.slip_increment(u, law), fields, "slip")
+    spring = contact_projection(friction.spring_slip(u, penetration, law), fields, "spring_slip")
     depth = contact_projection(penetration, fields, "penetration")
     state = fem.Function(depth.function_space, name="stick_slip")
-    slip_size = np.linalg.norm(slip.x.array.reshape(-1, fields.dim), axis=1)
+    slip_size = np.linalg.norm(spring.x.array.reshape(-1, fields.dim), axis=1)
     in_contact = depth.x.array > 0
     state.x.array[:] = np.where(in_contact, np.where(slip_size > float(law.epsilon.value) * depth.x.array, 2.0, 1.0),
                                 0.0)

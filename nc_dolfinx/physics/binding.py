@@ -183,7 +183,8 @@ def bind(problem, domain):
 
 def _friction_law(problem, fields):
     """The friction law of ``contact`` on this mesh (:mod:`.friction`): c_t = μ c_n and m_t = m_n from
-    ``friction``, or ``c_t``, ``m_t`` as given; u_prev = 0 (the unloaded body) until the solver sets it."""
+    ``friction``, or ``c_t``, ``m_t`` as given; u_prev = 0 and σ_t,prev = 0 (the unloaded body) until the solver sets
+    them (:mod:`.slip_state`)."""
     contact, msh, params = problem.values["contact"], fields.domain.mesh, problem.parameters
     V = versions.p1_space(msh, (fields.dim,))
     if contact["friction"] is not None:
@@ -192,7 +193,7 @@ def _friction_law(problem, fields):
         c_t, m_t = to_ufl(contact["c_t"], msh, params), fem.Constant(msh, PETSc.ScalarType(contact["m_t"]))
     epsilon = fem.Constant(msh, PETSc.ScalarType(contact["slip_regularisation"]))
     return friction.FrictionLaw(c_t, m_t, epsilon, fem.Function(V, name="previous_displacement"), fem.Function(V),
-                                friction.vertex_normal(V, fields.ds_of("contact")),
+                                friction.vertex_normal(V, fields.ds_of("contact")), fem.Function(V, name="previous_traction"),
                                 "contact.friction" if contact["friction"] is not None else "contact.c_t")
 
 

@@ -65,16 +65,15 @@ class NonlinearForms:
     with_c_n_scale: object = None
     # With friction (fields.friction, :mod:`.friction`): j_t(u, v) = −∫_Γ_C σ_t(u)·v_t with the bound F(ū),
     # ε(ū) of the iterate ``frozen`` ū, the derivative of ∫_Γ_C F̄ ψ_ε̄(Δu_t) (added to contact_energy), and
-    # u at the previous load state (Δu_t = (u − previous)_t). The solver moves ū to u until they agree
-    # (the fixed point), and ``previous`` on between its load increments. j_t_jacobian is j_t's derivative
-    # stiffened along the slip (friction.slip_stiffening): the Jacobian of the passes' Newton steps.
+    # the law's state at the previous load state (Δu_t = (u − u_prev)_t, :mod:`.slip_state`). The solver
+    # moves ū to u until they agree (the fixed point), and the state on between its load increments.
     j_t: ufl.Form = None
     j_t_jacobian: ufl.Form = None
-    previous: object = None
     frozen: object = None
     epsilon: object = None  # the regularisation's ε_r (a Constant: the solver's continuation sets it)
     # The consistent Jacobian of the Γ_C residual, the bound F(u), ε(u) of u itself (ū = u): not symmetric
     consistent_jacobian: ufl.Form = None
+    # Added to j_t_jacobian on some of the passes' Newton steps (friction.slip_stiffening, newton._newton_jacobian)
     slip_stiffening: ufl.Form = None
 
     @property
@@ -84,8 +83,7 @@ class NonlinearForms:
 
     @property
     def contact_jacobian(self):
-        """Its Gateaux derivative in u; with friction that of the frozen bound's problem, stiffened along the
-        slip (:func:`~nc_dolfinx.physics.friction.slip_stiffening`)."""
+        """Its Gateaux derivative in u; with friction that of the frozen bound's problem (symmetric)."""
         return self.j_n_jacobian if self.j_t is None else self.j_n_jacobian + self.j_t_jacobian
 
 
@@ -113,7 +111,7 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
         pieces.j_t = ufl.derivative(frictional_energy, u, v)
         pieces.j_t_jacobian = ufl.derivative(pieces.j_t, u, du)
         pieces.slip_stiffening = friction.slip_stiffening(u, du, v, bound, law) * dC
-        pieces.previous, pieces.frozen, pieces.epsilon = law.previous, law.frozen, law.epsilon
+        pieces.frozen, pieces.epsilon = law.frozen, law.epsilon
         consistent = ufl.replace(pieces.contact_residual, {law.frozen: u})
         pieces.consistent_jacobian = ufl.derivative(consistent, u, du)
     mass = c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC

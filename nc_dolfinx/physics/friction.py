@@ -13,7 +13,12 @@ Laursen's books):
 
     σ_t = −F Δu_t / max(|Δu_t|, ε),   ε = ε_r (u_n − g_0)_+,   ε_r = ``contact.slip_regularisation``:
 
-a stiff tangential spring F/ε where |Δu_t| < ε (stick), Coulomb's law itself beyond (slip). Why this one:
+a stiff tangential spring F/ε where |Δu_t| < ε (stick), Coulomb's law itself beyond (slip). The spring
+remembers the traction it carried: the law is applied to s = Δu_t − (ε/F) σ_t,prev, this increment's slip
+plus the stretch that carries the previous load state's traction σ_t,prev (:func:`spring_slip`; the return
+map of elastoplasticity moves σ_t,prev on, :mod:`.slip_state`), so that a stuck point keeps its traction
+from one increment to the next instead of stretching its spring anew (a stuck, loaded point then crept by
+up to ε an increment). Why this one:
 it is piecewise smooth with one kink, like (·)_+ in the normal law, and it is the gradient in Δu_t of the
 convex Huber function F ψ_ε(Δu_t), ψ_ε(s) = |s|²/(2ε) (|s| ≤ ε), |s| − ε/2 (beyond); the smooth
 alternative F Δu_t/(|Δu_t|² + ε²)^{1/2} is a sigmoid on which Newton overshoots. Why ε ∝ (u_n − g_0)_+: the
@@ -56,15 +61,17 @@ from .. import dolfinx_versions as versions
 @dataclass
 class FrictionLaw:
     """The friction law's data on one mesh: F = c_t (u_n − g_0)_+^{m_t} (UFL, a Constant), the regularisation
-    ε_r (a Constant), and three P1 vector functions: ``previous`` u at the previous load state (Δu = u −
-    previous), ``frozen`` the iterate ū whose bound F(ū), ε(ū) the solver's inner problem uses, and
-    ``normal`` N (:func:`vertex_normal`); ``key`` the problem's key that gives the bound (for messages)."""
+    ε_r (a Constant), and four P1 vector functions: ``previous`` u at the previous load state (Δu = u −
+    previous), ``frozen`` the iterate ū whose bound F(ū), ε(ū) the solver's inner problem uses, ``normal``
+    N (:func:`vertex_normal`) and ``previous_traction`` σ_t at the previous load state (:func:`spring_slip`);
+    ``key`` the problem's key that gives the bound (for messages)."""
     c_t: object
     m_t: object
     epsilon: object
     previous: fem.Function
     frozen: fem.Function
     normal: fem.Function
+    previous_traction: fem.Function  # σ_t at the previous load state (see spring_slip)
     key: str = "contact.friction"
 
 
@@ -79,6 +86,17 @@ def slip_increment(u, friction):
     return tangential(u - friction.previous, friction.normal)
 
 
+def spring_slip(u, penetration, friction):
+    """s = Δu_t − (ε/F) σ_t,prev: the slip the regularised law sees, this increment's slip Δu_t
+    (:func:`slip_increment`) plus the stretch of this increment's spring F/ε that carries the previous load
+    state's traction σ_t,prev (``previous_traction``): the traction is the law's memory, not the stretch, so
+    that a friction coefficient switched on, or a pressure that changes F/ε, leaves the traction where it
+    was. No stretch where F = 0 (``penetration``: (u_n − g_0)_+ of the bound's displacement)."""
+    bound = friction_bound(penetration, friction)
+    compliance = ufl.conditional(ufl.le(bound, 0), 0, friction.epsilon * penetration / bound)
+    return slip_increment(u, friction) - compliance * friction.previous_traction
+
+
 def friction_bound(penetration, friction):
     """F = c_t (u_n − g_0)_+^{m_t} (``penetration``: (u_n − g_0)_+)."""
     return friction.c_t * penetration ** friction.m_t
@@ -87,9 +105,10 @@ def friction_bound(penetration, friction):
 def tangential_traction(u, penetration, friction):
     """σ_t = −F Δu_t / max(‖Δu_t‖, ε_r (u_n − g_0)_+) of the regularised Coulomb law, F = c_t (u_n − g_0)_+^{m_t}
     (μ times the pressure of law (4) in Coulomb's case), 0 out of contact
-    (``penetration``: (u_n − g_0)_+ of the displacement whose bound is used). A conditional guards the
-    points out of contact, where the other branch would be 0/0."""
-    slip = slip_increment(u, friction)
+    (``penetration``: (u_n − g_0)_+ of the displacement whose bound is used), Δu_t here the spring's slip
+    s (:func:`spring_slip`). A conditional guards the points out of contact, where the other branch would be
+    0/0."""
+    slip = spring_slip(u, penetration, friction)
     size = ufl.max_value(ufl.sqrt(ufl.dot(slip, slip)), friction.epsilon * penetration)
     return -ufl.conditional(ufl.le(penetration, 0), 0, friction_bound(penetration, friction) / size) * slip
 
@@ -115,8 +134,8 @@ def slip_stiffening(u, du, v, penetration, friction):
     (the stick spring's: the Jacobian is continuous across it) and falls like ε/|Δu_t|² into the slip zone,
     so that far into it the step is Newton's own (a slip ~10ε: 1/300 of the stick spring). The Jacobian stays SPD, so the
     step remains a descent direction of the frozen problem's energy; the residual, and the solution, are
-    unchanged (25 Newton steps, 16 set-ups on that member)."""
-    slip = slip_increment(u, friction)
+    unchanged (25 Newton steps, 16 set-ups on that member). Δu_t: the spring's slip s (:func:`spring_slip`)."""
+    slip = spring_slip(u, penetration, friction)
     squared, length = ufl.dot(slip, slip), friction.epsilon * penetration
     along = ufl.dot(slip, tangential(du, friction.normal)) * ufl.dot(slip, tangential(v, friction.normal))
     stiffness = SLIP_STIFFENING * friction_bound(penetration, friction) * length / squared ** 2
@@ -127,8 +146,8 @@ def slip_stiffening(u, du, v, penetration, friction):
 def dissipation(u, penetration, friction):
     """F ψ_ε(Δu_t), ψ_ε(s) = |s|²/(2ε) for |s| ≤ ε, |s| − ε/2 beyond (ε = ε_r (u_n − g_0)_+): for a given
     ``penetration`` (the frozen bound's) a convex, C¹ function of u whose derivative along v is
-    −σ_t · v_t (:func:`tangential_traction`)."""
-    slip = slip_increment(u, friction)
+    −σ_t · v_t (:func:`tangential_traction`; Δu_t: the spring's slip s)."""
+    slip = spring_slip(u, penetration, friction)
     squared, length = ufl.dot(slip, slip), friction.epsilon * penetration
     huber = ufl.conditional(ufl.le(squared, length ** 2), squared / (2 * length), ufl.sqrt(squared) - length / 2)
     return ufl.conditional(ufl.le(penetration, 0), 0, friction_bound(penetration, friction) * huber)

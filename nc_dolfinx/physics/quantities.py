@@ -62,8 +62,10 @@ def solution_quantities(u, fields):
 def friction_quantities(u, fields):
     """With friction (:mod:`.friction`): ``friction_force`` ∫_Γ_C s_t, the tangential force the foundation
     exerts on the body (s_t the law's tangential traction); ``slip_length``/``slip_area`` and
-    ``stick_length``/``stick_area``, the measures of the parts of the contact zone {p > 0} where the slip
-    increment exceeds the regularisation's slip length ε_r (u_n − g_0)_+ (there |s_t| = F: Coulomb's slip) and
+    ``stick_length``/``stick_area``, the measures of the parts of the contact zone {p > 0} where the spring's
+    slip (:func:`~nc_dolfinx.physics.friction.spring_slip`: the slip increment plus the stretch that
+    carries the previous state's traction) exceeds the regularisation's slip length ε_r (u_n − g_0)_+ (there
+    |s_t| = F: Coulomb's slip) and
     where it does not (|s_t| < F: the stick spring) (as ε_r → 0 they tend to Coulomb's slip and stick zones); ``max_slip`` the largest nodal |Δu_t|
     (a lumped projection on Γ_C)."""
     comm, law = fields.domain.comm, fields.friction
@@ -71,8 +73,8 @@ def friction_quantities(u, fields):
     dC = forms.contact_measure(fields)
     penetration = forms.penetration(u, fields, n)
     traction = friction.tangential_traction(u, penetration, law)
-    slip = friction.slip_increment(u, law)
-    slipping = ufl.conditional(ufl.gt(ufl.dot(slip, slip), (law.epsilon * penetration) ** 2), 1.0, 0.0)
+    slip, spring = friction.slip_increment(u, law), friction.spring_slip(u, penetration, law)
+    slipping = ufl.conditional(ufl.gt(ufl.dot(spring, spring), (law.epsilon * penetration) ** 2), 1.0, 0.0)
     in_contact = ufl.conditional(ufl.gt(penetration, 0), 1.0, 0.0)
     measure = "length" if fields.dim == 2 else "area"
     slip_size = contact_projection(ufl.sqrt(ufl.dot(slip, slip)), fields, "slip")

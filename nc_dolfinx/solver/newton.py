@@ -136,8 +136,10 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
     the load continuation). With u_D = 0 the lifting adds nothing: the homogeneous problem of the paper.
     """
 
-    def __init__(self, forms, u, bcs, options, preconditioner_matrix="auto"):
+    def __init__(self, forms, u, bcs, options, preconditioner_matrix="auto", end_of_increment=None):
         """``options``: from ``solver_options`` (the preset's name and the user's layers).
+        ``end_of_increment(u)``: called with u solved at the end of each load increment but the last (with
+        friction: the law's state moves on, :func:`nc_dolfinx.physics.slip_state.advance`).
         ``preconditioner_matrix`` is the matrix the PC is built from:
         "auto": J(u_0) at the initial guess (K itself on a cold start, the contact stiffness of the
         transferred solution on a nested level), rebuilt from the current J when it no longer fits (see
@@ -149,6 +151,7 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         if preconditioner_matrix not in PRECONDITIONER_MATRICES:
             raise ValueError(f"preconditioner_matrix must be one of {PRECONDITIONER_MATRICES}")
         self.u, self.bcs, self.mode = u, bcs, preconditioner_matrix
+        self.end_of_increment = end_of_increment
         self.configured_mode = preconditioner_matrix
         V = u.function_space
         self.comm = V.mesh.comm
@@ -757,8 +760,9 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         try:
             for step in range(1, load_steps + 1):
                 self.load_factor = step / load_steps
-                if step > 1 and self.forms.previous is not None:  # the slip of this increment, not the last's
-                    self._copy_into(x, self.forms.previous)
+                if step > 1 and self.end_of_increment is not None:  # (the slip of this increment, not the last's)
+                    self._update(x)
+                    self.end_of_increment(self.u)
                 try:
                     solve_increment = self._solve_load_step if self.forms.frozen is None else self._fixed_point
                     recoveries += solve_increment(x, stats, 1.0 / load_steps)
