@@ -10,7 +10,7 @@ from mpi4py import MPI
 
 import nc_dolfinx as nc
 from conftest import ROOT, run
-from mpi.sheared_layer import EPS_R, exact_state, layer_problem, outcome
+from mpi.sheared_layer import EPS_R, exact_state, held_problem, layer_problem, outcome
 from nc_dolfinx.errors import InputError
 
 SCRIPT = ROOT / "tests" / "mpi" / "sheared_layer.py"
@@ -42,10 +42,11 @@ def test_the_sheared_layer_is_exact(dim, mode, m_n):
 
 
 @pytest.mark.parametrize("nprocs", [2, 3])
-@pytest.mark.parametrize("dim, mode", [(2, "slip"), (3, "stick")])
-def test_ranks_give_the_same_layer(nprocs, dim, mode):
-    """1, 2 and 3 ranks: the same nodal values (sorted by coordinates) and numbers."""
-    outputs = [run([SCRIPT, dim, mode, 1.0], n) for n in (1, nprocs)]
+@pytest.mark.parametrize("dim, mode, path", [(2, "slip", ""), (3, "stick", ""), (2, "stick", "held")])
+def test_ranks_give_the_same_layer(nprocs, dim, mode, path):
+    """1, 2 and 3 ranks: the same nodal values (sorted by coordinates) and numbers; also at the end of the
+    held load path (test_a_held_load_does_not_creep), whose state the return map moved on 4 times."""
+    outputs = [run([SCRIPT, dim, mode, 1.0, *([path] if path else [])], n) for n in (1, nprocs)]
     for out in outputs:
         assert out.returncode == 0, out.stderr[-3000:]
     serial, parallel = (json.loads(out.stdout.strip().splitlines()[-1]) for out in outputs)
@@ -53,6 +54,8 @@ def test_ranks_give_the_same_layer(nprocs, dim, mode):
     np.testing.assert_allclose(parallel["nodal_values"], serial["nodal_values"], atol=1e-9 * scale, rtol=0)
     for key in ("friction_force", "contact_resultant", "stick", "slip", "reaction_top"):
         np.testing.assert_allclose(parallel[key], serial[key], rtol=1e-8, atol=1e-12)
+    if path:  # (and the held state is the exact one on every rank count)
+        assert parallel["nodal_error"] < 1e-10 and parallel["max_slip"] < 1e-8 * parallel["exact_slip"]
 
 
 def test_zero_friction_is_the_frictionless_problem():
@@ -97,15 +100,8 @@ def test_a_held_load_does_not_creep():
     increment of step 2 ends at the same exact state, with no slip increment and the same friction force.
     A spring stretched anew each increment (the law without its memory) slid the base by the pre-slip s
     again in every increment of step 2."""
-    gamma, slip, e, depth, _ = exact_state(2, "stick", 1.0)
-    raw = dict(layer_problem(2, "stick", 1.0).raw)
-    raw["parameters"] = {"gamma": 0.0, "s": 0.0}
-    u = ["gamma*y + s", f"-{e!r}*y - {depth!r}"]
-    raw["loads"] = dict(raw["loads"], u_D=u)
-    raw["exact"] = {"u": u}
-    load = {"gamma": gamma, "s": slip}
-    raw["steps"] = [{"set": load}, {"set": load, "increments": 4}]
-    first, *held = nc.adapt(nc.Problem.from_dict(raw, "layer-held")).history
+    slip = exact_state(2, "stick", 1.0)[1]
+    first, *held = nc.adapt(held_problem(2)).history
     assert len(held) == 4 and first["stick_length"] == pytest.approx(2.0, rel=1e-12)
     for row in held:
         assert row["h1_error"] < 1e-10 * first["elastic_energy"] ** 0.5

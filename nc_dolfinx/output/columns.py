@@ -12,7 +12,8 @@ SIGN_CONVENTIONS = [
     "Penetration (u_n − g_0)_+ >= 0; contact pressure p = c_n (u_n − g_0)_+^m_n = −σ_n >= 0 (compression).",
     "contact_force = −∫_Γ_C p ν: the force the foundation exerts on the body (it points into the body).",
     "Friction: Δu_t is the tangential part of u − u_prev (u_prev the previous load state); the tangential "
-    "traction s_t and friction_force are the foundation's on the body: they oppose the slip (s_t·Δu_t <= 0), "
+    "traction s_t and friction_force are the foundation's on the body: they oppose the spring's slip "
+    "s = Δu_t − (ε/F) s_t,prev (s_t·s <= 0; s_t,prev the previous state's traction), "
     "|s_t| <= F = μ p (Coulomb) or c_t (u_n − g_0)_+^m_t.",
     "reaction_GROUP: the force a support (Dirichlet group or symmetry plane) exerts on the body: a group moved "
     "outwards by loads.u_D, stretching the body, pulls it (its reaction points along the outward normal).",
@@ -49,9 +50,9 @@ COLUMNS = {
     "contact_length": "measure of {p > 0} on Γ_C (2D; contact_area in 3D)",
     "friction_force_x": "with friction: x component of ∫_Γ_C s_t, the tangential force of the foundation on "
                         "the body (_y, _z alike)",
-    "slip_length": "with friction: measure of the part of {p > 0} where the body slips, |Δu_t| > ε_r (u_hn − "
-                   "g_0)_+ (2D; slip_area in 3D)",
-    "stick_length": "with friction: measure of the part of {p > 0} where it sticks, |Δu_t| <= ε_r (u_hn − g_0)_+ "
+    "slip_length": "with friction: measure of the part of {p > 0} where the body slips, |s| > ε_r (u_hn − "
+                   "g_0)_+, s the spring's slip (2D; slip_area in 3D)",
+    "stick_length": "with friction: measure of the part of {p > 0} where it sticks, |s| <= ε_r (u_hn − g_0)_+ "
                     "(2D; stick_area in 3D)",
     "max_slip": "with friction: max of the nodal slip increment |Δu_t| on Γ_C (lumped projection)",
     "friction_passes": "with friction: passes of the fixed point on the friction bound (see Solver)",

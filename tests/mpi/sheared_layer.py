@@ -15,8 +15,8 @@ slip from the unloaded state is s: μ P s / max(s, ε_r d). Given e, either
 - slip: Gγ = μP, and any s ≥ ε_r d (the base slides by s at the friction bound).
 
 P1 holds the linear u exactly, so u_h equals it at the nodes to the solver's tolerance. Shared by
-tests/test_friction.py; run as a script (``sheared_layer.py DIM MODE M_N``, any number of ranks) it prints
-(rank 0, JSON) the outcome.
+tests/test_friction.py; run as a script (``sheared_layer.py DIM MODE M_N [held]``, any number of ranks) it
+prints (rank 0, JSON) the outcome (``held``: of :func:`held_problem`'s last increment).
 """
 import json
 import sys
@@ -70,6 +70,22 @@ def layer_problem(dim, mode, m_n, friction=MU):
     return nc.Problem.from_dict(data, f"layer{dim}d")
 
 
+def held_problem(dim):
+    """The layer sheared in stick by step 1 of a load path, the same load held over 4 increments by step 2:
+    with the law's memory of the traction (nc_dolfinx/physics/slip_state.py) every increment of step 2 ends
+    at the same exact state."""
+    gamma, slip, e, depth, _ = exact_state(dim, "stick", 1.0)
+    raw = dict(layer_problem(dim, "stick", 1.0).raw)
+    raw["parameters"] = {"gamma": 0.0, "s": 0.0}
+    v = "y" if dim == 2 else "z"
+    u = [f"gamma*{v} + s"] + ["0"] * (dim - 2) + [f"-{e!r}*{v} - {depth!r}"]
+    raw["loads"] = dict(raw["loads"], u_D=u)
+    raw["exact"] = {"u": u}
+    load = {"gamma": gamma, "s": slip}
+    raw["steps"] = [{"set": load}, {"set": load, "increments": 4}]
+    return nc.Problem.from_dict(raw, f"layer{dim}d-held")
+
+
 def outcome(result, dim, mode, m_n):
     """The numbers a test checks, from :func:`nc.adapt`'s result."""
     row = result.history[-1]
@@ -97,7 +113,8 @@ def outcome(result, dim, mode, m_n):
 
 if __name__ == "__main__":
     dim, mode, m_n = int(sys.argv[1]), sys.argv[2], float(sys.argv[3])
-    result = outcome(nc.adapt(layer_problem(dim, mode, m_n)), dim, mode, m_n)
+    problem = held_problem(dim) if "held" in sys.argv[4:] else layer_problem(dim, mode, m_n)
+    result = outcome(nc.adapt(problem), dim, mode, m_n)
     gathered = MPI.COMM_WORLD.gather((result.pop("x"), result.pop("u")), root=0)
     if MPI.COMM_WORLD.rank == 0:
         points = np.concatenate([np.array(x) for x, _ in gathered])
