@@ -13,12 +13,7 @@ Laursen's books):
 
     σ_t = −F Δu_t / max(|Δu_t|, ε),   ε = ε_r (u_n − g_0)_+,   ε_r = ``contact.slip_regularisation``:
 
-a stiff tangential spring F/ε where |Δu_t| < ε (stick), Coulomb's law itself beyond (slip). The spring
-remembers the traction it carried: the law is applied to s = Δu_t − (ε/F) σ_t,prev, this increment's slip
-plus the stretch that carries the previous load state's traction σ_t,prev (:func:`spring_slip`; the return
-map of elastoplasticity moves σ_t,prev on, :mod:`.slip_state`), so that a stuck point keeps its traction
-from one increment to the next instead of stretching its spring anew (a stuck, loaded point then crept by
-up to ε an increment). Why this one:
+a stiff tangential spring F/ε where |Δu_t| < ε (stick), Coulomb's law itself beyond (slip). Why this one:
 it is piecewise smooth with one kink, like (·)_+ in the normal law, and it is the gradient in Δu_t of the
 convex Huber function F ψ_ε(Δu_t), ψ_ε(s) = |s|²/(2ε) (|s| ≤ ε), |s| − ε/2 (beyond); the smooth
 alternative F Δu_t/(|Δu_t|² + ε²)^{1/2} is a sigmoid on which Newton overshoots. Why ε ∝ (u_n − g_0)_+: the
@@ -26,6 +21,12 @@ stick spring F/ε = c_t (u_n − g_0)_+^{m_t − 1}/ε_r then stands to the norm
 g_0)_+^{m_n − 1}, as μ/(ε_r m_n) in Coulomb's case, whatever the units, loads or foundation: ε_r is a
 dimensionless pre-slip (in units of the penetration) and one default serves every problem; as ε_r → 0 the
 law tends to Coulomb's.
+
+The spring remembers the traction it carried: the law is applied to s = Δu_t − (ε/F) σ_t,prev, this
+increment's slip plus the stretch that carries the previous load state's traction σ_t,prev
+(:func:`spring_slip`; the return map of elastoplasticity moves σ_t,prev on, :mod:`.slip_state`), so that a
+stuck point keeps its traction from one increment to the next instead of stretching its spring anew (a
+stuck, loaded point then crept by up to ε an increment).
 
 How it is solved: a fixed point on the friction bound (the scheme behind the existence proofs of Klarbring,
 Mikelić & Shillor and of Andersson). With F̄ = F(ū), ε̄ = ε(ū) frozen at an iterate ū, the increment minimises
@@ -121,25 +122,27 @@ SLIP_STIFFENING = 0.3
 
 
 def slip_stiffening(u, du, v, penetration, friction):
-    """κ F ε/|Δu_t|⁴ (Δu_t·du_t)(Δu_t·v_t) where the body slips (|Δu_t| > ε), 0 elsewhere (κ = SLIP_STIFFENING;
-    ``penetration``: the frozen bound's): a stiffness along the slip that the solver's passes add to the
-    exact Hessian of ∫ F ψ_ε(Δu_t) (:func:`dissipation`) on a pass's first Newton step and after a step the
-    line search cut (:meth:`~nc_dolfinx.solver.newton.NonlinearSolver._newton_jacobian`). That Hessian,
-    F/|Δu_t| times the projection
-    across the slip, has no stiffness along it (none at all in 2D): Newton's linear model lets a slipping
-    point move along its slip at a constant traction, also back through zero, where the law turns it into
-    a stiff stick spring F/ε, so the energy line search cut the step to λ ~ ε (4e-6 at ε_r = 1e-3) and
-    every pass of the ε-continuation began with 5–6 such creeping steps (benchmarks/family.py, 1e4-1-mu0.3:
-    49 Newton steps, 38 preconditioner set-ups from a cold start). The added stiffness is F/ε at the kink
-    (the stick spring's: the Jacobian is continuous across it) and falls like ε/|Δu_t|² into the slip zone,
-    so that far into it the step is Newton's own (a slip ~10ε: 1/300 of the stick spring). The Jacobian stays SPD, so the
-    step remains a descent direction of the frozen problem's energy; the residual, and the solution, are
-    unchanged (25 Newton steps, 16 set-ups on that member). Δu_t: the spring's slip s (:func:`spring_slip`)."""
+    """κ F ε/|s|⁴ (s·du_t)(s·v_t) where the body slips (|s| > ε), 0 elsewhere (s the spring's slip,
+    :func:`spring_slip`; κ = SLIP_STIFFENING; ``penetration``: the frozen bound's): a stiffness along the
+    slip that the solver's passes add to the exact Hessian of ∫ F ψ_ε(s) (:func:`dissipation`) on a pass's
+    first Newton step and after a step the line search cut
+    (:meth:`~nc_dolfinx.solver.newton.NonlinearSolver._newton_jacobian`).
+
+    That Hessian, F/|s| times the projection across the slip, has no stiffness along it (none at all in
+    2D): Newton's linear model lets a slipping point move along its slip at a constant traction, also back
+    through zero, where the law turns it into a stiff stick spring F/ε, so the energy line search cut the
+    step to λ ~ ε (4e-6 at ε_r = 1e-3) and every pass of the ε-continuation began with 5–6 such creeping
+    steps (benchmarks/family.py, 1e4-1-mu0.3: 49 Newton steps, 38 preconditioner set-ups from a cold
+    start). The added stiffness is F/ε at the kink (the stick spring's: the Jacobian is continuous across
+    it) and falls like ε/|s|² into the slip zone, so that far into it the step is Newton's own (at a slip of
+    10ε: 1/300 of the stick spring). The Jacobian stays SPD, so the step remains a descent direction of the
+    frozen problem's energy; the residual, and the solution, are unchanged (25 Newton steps, 16 set-ups on
+    that member)."""
     slip = spring_slip(u, penetration, friction)
     squared, length = ufl.dot(slip, slip), friction.epsilon * penetration
     along = ufl.dot(slip, tangential(du, friction.normal)) * ufl.dot(slip, tangential(v, friction.normal))
     stiffness = SLIP_STIFFENING * friction_bound(penetration, friction) * length / squared ** 2
-    # (le, not gt: closed_jacobian closes the kinks written as gt, which would take 0/0 at |Δu_t| = ε = 0)
+    # (le, not gt: closed_jacobian closes the kinks written as gt, which would take 0/0 at |s| = ε = 0)
     return ufl.conditional(ufl.le(squared, length ** 2), 0, stiffness) * along
 
 
