@@ -63,11 +63,10 @@ def friction_quantities(u, fields):
     """With friction (:mod:`.friction`): ``friction_force`` ∫_Γ_C s_t, the tangential force the foundation
     exerts on the body (s_t the law's tangential traction); ``slip_length``/``slip_area`` and
     ``stick_length``/``stick_area``, the measures of the parts of the contact zone {p > 0} where the spring's
-    slip (:func:`~nc_dolfinx.physics.friction.spring_slip`: the slip increment plus the stretch that
+    slip s (:func:`~nc_dolfinx.physics.friction.spring_slip`: the slip increment plus the stretch that
     carries the previous state's traction) exceeds the regularisation's slip length ε_r (u_n − g_0)_+ (there
-    |s_t| = F: Coulomb's slip) and
-    where it does not (|s_t| < F: the stick spring) (as ε_r → 0 they tend to Coulomb's slip and stick zones); ``max_slip`` the largest nodal |Δu_t|
-    (a lumped projection on Γ_C)."""
+    |s_t| = F: Coulomb's slip) and where it does not (|s_t| < F: the stick spring); as ε_r → 0 they tend to
+    Coulomb's slip and stick zones. ``max_slip``: the largest nodal |Δu_t| (a lumped projection on Γ_C)."""
     comm, law = fields.domain.comm, fields.friction
     n = ufl.FacetNormal(fields.domain.mesh)
     dC = forms.contact_measure(fields)

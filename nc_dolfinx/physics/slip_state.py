@@ -34,24 +34,24 @@ class SlipState:
 
 
 def _at_vertices(u, fields):
-    """(F, ε, s) at the vertices of u's mesh: the bound and slip length lumped (zero off Γ_C), and the
-    spring's slip s = Δu_t − (ε/F) σ_t,prev with the vertex normal."""
+    """(F, ε, stretch, s) at the vertices of u's mesh: the bound and the slip length lumped (zero off Γ_C),
+    the stretch (ε/F) σ_t,prev and the spring's slip s = Δu_t − (ε/F) σ_t,prev (with the vertex normal)."""
     law, dim = fields.friction, fields.dim
     depth = forms.penetration(u, fields, ufl.FacetNormal(fields.domain.mesh))
     bound = contact_projection(friction.friction_bound(depth, law), fields, "bound").x.array
     length = float(law.epsilon.value) * contact_projection(depth, fields, "penetration").x.array
     compliance = np.where(bound > 0, length / np.where(bound > 0, bound, 1.0), 0.0)
+    stretch = compliance[:, None] * law.previous_traction.x.array.reshape(-1, dim)
     N = law.normal.x.array.reshape(-1, dim)
     increment = (u.x.array - law.previous.x.array).reshape(-1, dim)
-    slip = increment - np.sum(increment * N, axis=1)[:, None] * N
-    slip -= compliance[:, None] * law.previous_traction.x.array.reshape(-1, dim)
-    return bound, length, slip
+    slip = increment - np.sum(increment * N, axis=1)[:, None] * N - stretch
+    return bound, length, stretch, slip
 
 
 def traction_at(u, fields):
     """σ_t at the end of the increment that ends at u (the return map above), as an array of P1 values
     (ghosts included)."""
-    bound, length, slip = _at_vertices(u, fields)
+    bound, length, _, slip = _at_vertices(u, fields)
     size = np.linalg.norm(slip, axis=1)
     stiffness = np.where(bound > 0, bound / np.maximum(np.maximum(size, length), 1e-300), 0.0)
     return (-stiffness[:, None] * slip).ravel()
@@ -83,8 +83,6 @@ def spring_stretch(u, fields):
     law (4) times μ in Coulomb's case, lumped at u), the part of the spring's slip s = Δu_t − (ε/F) σ_t,prev
     that the previous state's traction leaves (the return map's memory): a P1 Function, for post-processing
     that evaluates the law pointwise."""
-    bound, length, slip = _at_vertices(u, fields)
     stretch = fem.Function(u.function_space, name="spring_stretch")
-    compliance = np.where(bound > 0, length / np.where(bound > 0, bound, 1.0), 0.0)
-    stretch.x.array[:] = (compliance[:, None] * fields.friction.previous_traction.x.array.reshape(-1, fields.dim)).ravel()
+    stretch.x.array[:] = _at_vertices(u, fields)[2].ravel()
     return stretch
