@@ -96,10 +96,10 @@ def test_the_slip_is_measured_from_the_previous_state():
 
 def test_a_held_load_does_not_creep():
     """A load path: step 1 shears the layer in stick to its exact state, step 2 holds the same load over 4
-    increments. The stick spring keeps its stretch from one state to the next (physics/slip_state.py): every
-    increment of step 2 ends at the same exact state, with no slip increment and the same friction force.
-    A spring stretched anew each increment (the law without its memory) slid the base by the pre-slip s
-    again in every increment of step 2."""
+    increments. The law keeps the tangential traction from one state to the next (physics/slip_state.py):
+    every increment of step 2 ends at the same exact state, with no slip increment and the same friction
+    force. A spring stretched anew each increment (the law without its memory) slid the base by the
+    pre-slip s again in every increment of step 2 (H¹ error 1.8e-7 against the bound 1.6e-12)."""
     slip = exact_state(2, "stick", 1.0)[1]
     first, *held = nc.adapt(held_problem(2)).history
     assert len(held) == 4 and first["stick_length"] == pytest.approx(2.0, rel=1e-12)

@@ -7,7 +7,8 @@ state, ``fields.friction.previous``), the spring's stretch w = (ε/F) σ_t,prev 
 state's traction (nc_dolfinx/physics/slip_state.py; ε/F = ε_r/(μ c_n) is constant here, m_n = 1) and the
 vertex normal N (``fields.friction.normal``) are linear in the facet; the penetration is (u·ν − g_0)_+
 with ν the facet's outward normal and g_0 the sphere's height R − sqrt(R² − x² − y²) (the case's gap);
-s = (u − u_prev) − ((u − u_prev)·N) N − w, and the point slips where |s| > ε_r (u·ν − g_0)_+. Each facet is cut into n² similar triangles, each classified at its
+s = (u − u_prev) − ((u − u_prev)·N) N − w, and the point slips where |s| > ε_r (u·ν − g_0)_+. Each facet
+is cut into n² similar triangles, each classified at its
 centroid: the areas then approximate the history's stick_area / slip_area (a quadrature of the same
 indicator), and the pieces draw the zones.
 """
