@@ -15,8 +15,8 @@ tangential slip on Γ_C changes direction, so that Γ_C has a stick zone (2D: a 
 beside it; both laws hold exactly through the gap g_0 and a space-dependent bound c_t built from u (checked with sympy in
 `tests/test_friction_manufactured.py`, construction in `docs/src/manufactured_friction.md`). Uniform refinement from
 8×8 (2D) and 6³ (3D); the friction force against its exact value, the stick zone's measure against the exact 0.2991
-(2D). Last, `manufactured_friction_layer`: the same plus a narrow smooth bump inside the body, where adaptive
-refinement must pay (`docs/src/manufactured_friction_layer.md`).
+(2D). Last, `manufactured_friction_layer` and `manufactured_friction_layer3d`: the same plus a narrow smooth bump
+inside the body (from 8×8 and 4³), where adaptive refinement must pay (`docs/src/manufactured_friction_layer.md`).
 """,
     "cattaneo": """Cattaneo–Mindlin partial slip (`docs/src/cattaneo.md`, `docs/src/cattaneo3d.md`): a half-disc (2D, the
 `hertz` mesh) and a half ball (3D, one symmetry plane) pressed by their clamped tops onto a nearly rigid foundation

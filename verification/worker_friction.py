@@ -6,7 +6,7 @@
   regularised Coulomb law, stick and slip, 2D and 3D) and μ = 0 against the frictionless problem;
 - ``friction_manufactured``: the manufactured frictional solutions with stick and slip zones
   (cases manufactured_friction and manufactured_friction3d), uniform refinement and Dörfler's, and
-  manufactured_friction_layer (a narrow bump inside the body), where adaptivity must pay;
+  manufactured_friction_layer and ...layer3d (a narrow bump inside the body), where adaptivity must pay;
 - ``cattaneo``: Cattaneo–Mindlin partial slip of a cylinder and of a sphere (cases cattaneo, cattaneo3d).
 Only the public API; one JSON file (rank 0).
 """
@@ -24,10 +24,12 @@ from mpi.sheared_layer import exact_state, layer_problem, outcome  # noqa: E402
 
 CONFIG = {
     "quick": {"cattaneo": {}, "friction_exact": {"layers": [[2, "stick", 1.0], [2, "slip", 1.0], [3, "stick", 1.0]]},
-              "friction_manufactured": {"levels_2d": 4, "levels_3d": 3, "adaptive_levels_2d": 8, "layer_levels": 5}},
+              "friction_manufactured": {"levels_2d": 4, "levels_3d": 3, "adaptive_levels_2d": 8, "layer_levels": 5,
+                                        "layer3d_levels": 3}},
     "full": {"cattaneo": {}, "friction_exact": {"layers": [[2, "stick", 1.0], [2, "slip", 1.0], [2, "slip", 1.5], [3, "stick", 1.0],
                                            [3, "slip", 1.5]]},
-             "friction_manufactured": {"levels_2d": 5, "levels_3d": 3, "adaptive_levels_2d": 12, "layer_levels": 6}},
+             "friction_manufactured": {"levels_2d": 5, "levels_3d": 3, "adaptive_levels_2d": 12, "layer_levels": 6,
+                                       "layer3d_levels": 4}},
 }
 FRICTION_KEYS = ("friction_force", "stick_length", "slip_length", "stick_area", "slip_area", "max_slip",
                  "friction_passes", "friction_newton")
@@ -72,11 +74,11 @@ def study_friction_manufactured(cfg):
             settings = nc.AdaptSettings.from_problem(problem, refine="adaptive", levels=cfg["adaptive_levels_2d"],
                                                      max_dofs=out["uniform2"][-1]["dofs"])
             out["adaptive2"] = [row_of(r) for r in nc.adapt(problem, settings).history]
-    layer = nc.load_problem("manufactured_friction_layer")
-    out["layer_uniform"] = [row_of(r) for r in nc.adapt(layer, uniform_settings(cfg["layer_levels"])).history]
-    settings = nc.AdaptSettings.from_problem(layer, refine="adaptive", levels=20,
-                                             max_dofs=out["layer_uniform"][-1]["dofs"])
-    out["layer_adaptive"] = [row_of(r) for r in nc.adapt(layer, settings).history]
+    for key, case in (("layer", "manufactured_friction_layer"), ("layer3d", "manufactured_friction_layer3d")):
+        layer = nc.load_problem(case)
+        uniform = [row_of(r) for r in nc.adapt(layer, uniform_settings(cfg[f"{key}_levels"])).history]
+        settings = nc.AdaptSettings.from_problem(layer, refine="adaptive", levels=20, max_dofs=uniform[-1]["dofs"])
+        out[f"{key}_uniform"], out[f"{key}_adaptive"] = uniform, [row_of(r) for r in nc.adapt(layer, settings).history]
     return out
 
 
