@@ -1,11 +1,12 @@
 """Uniform against Dörfler-adaptive refinement on nc_dolfinx/cases/manufactured_friction_layer.toml (the 2D
-manufactured frictional solution plus a narrow interior Gaussian bump): the H¹ error, its rate, the
-effectivity η/‖u − u_h‖_1 and, for each adaptive level, the uniform dofs that reach the same error
-(log-log interpolation between uniform levels) and their ratio to the adaptive dofs. Serial; prints Markdown.
+manufactured frictional solution plus a narrow interior Gaussian bump) or, with --3d, on
+manufactured_friction_layer3d.toml: the H¹ error, its rate, the effectivity η/‖u − u_h‖_1 and, for each
+adaptive level, the uniform dofs that reach the same error (log-log interpolation between uniform levels)
+and their ratio to the adaptive dofs. Serial; prints Markdown.
 
-    PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction_layer.py [--quick]
+    PYTHONPATH=. /usr/bin/python3 verification/manufactured_friction_layer.py [--3d] [--quick]
 
---quick: uniform to 64×64 only (a smoke run); the full run goes to 256×256.
+--quick: uniform to 64×64 (16³) only (a smoke run); the full run goes to 256×256 (32³).
 """
 import math
 import sys
@@ -16,7 +17,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from manufactured_friction import adaptive_table, run, uniform_table  # noqa: E402
 
-CASE = "manufactured_friction_layer"
+CASES = {2: ("manufactured_friction_layer", "8×8"), 3: ("manufactured_friction_layer3d", "4³")}
 
 
 def header(argv):
@@ -51,13 +52,15 @@ def savings_table(adaptive, uniform):
 
 def main(argv):
     quick = "--quick" in argv
+    dim = 3 if "--3d" in argv else 2
+    case, coarsest = CASES[dim]
     header(argv)
-    levels = 4 if quick else 6
-    print(f"## Uniform, 8×8, {levels} levels\n")
-    uniform, seconds = run(CASE, "--refine", "uniform", "--levels", str(levels))
-    uniform_table(uniform, 2, seconds)
-    print("## Dörfler θ = 0.5 from 8×8, against uniform at the same dofs\n")
-    adaptive, seconds = run(CASE, "--refine", "adaptive", "--theta", "0.5", "--levels", "30",
+    levels = (4 if quick else 6) if dim == 2 else (3 if quick else 4)
+    print(f"## Uniform, {coarsest}, {levels} levels\n")
+    uniform, seconds = run(case, "--refine", "uniform", "--levels", str(levels))
+    uniform_table(uniform, dim, seconds)
+    print(f"## Dörfler θ = 0.5 from {coarsest}, against uniform at the same dofs\n")
+    adaptive, seconds = run(case, "--refine", "adaptive", "--theta", "0.5", "--levels", "30",
                             "--max-dofs", str(uniform[-1]["dofs"]))
     adaptive_table(adaptive, uniform, seconds)
     print("## The uniform dofs needed for each adaptive error\n")

@@ -32,6 +32,12 @@ class SlipState:
     displacement: fem.Function
     traction: fem.Function
 
+    @classmethod
+    def after(cls, u, fields):
+        """The state at the end of a load increment that ended at ``u`` (``Solution.u``, ``Solution.fields``):
+        the return map above, for the next increment's ``solve(previous_state=)`` (copies)."""
+        return state_after(u, fields)
+
 
 def _at_vertices(u, fields):
     """(F, ε, stretch, s) at the vertices of u's mesh: the bound and the slip length lumped (zero off Γ_C),
