@@ -3,6 +3,7 @@
 # and nothing that is already there. The same package names serve all three releases (checked in CI, which
 # runs this script in root file systems of trixie and sid: .ci/rootfs). Used by the README quickstart,
 # .ci/run and the Dockerfile alike. Idempotent.
+# python3-pytest-xdist: `pytest -n auto` runs the tests in as many processes as cores (CI does).
 # libopenblas0-serial replaces the reference BLAS under MUMPS (LU/Cholesky about 2x faster, measured).
 # python3-sphinx, python3-myst-parser, furo: the documentation site (docs/build.py); chromium, chromium-driver,
 #   python3-selenium: tests/test_docs.py opens the built site in headless Chromium (pictures really render).
@@ -13,7 +14,8 @@
 #   sh install.sh --paraview   also ParaView (pvpython) and Xvfb, to render the README picture
 set -eu
 PACKAGES="python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-gmsh python3-h5py
-python3-numpy python3-scipy python3-sympy python3-matplotlib python3-pytest python3-hypothesis openmpi-bin gcc python3-dev
+python3-numpy python3-scipy python3-sympy python3-matplotlib python3-pytest python3-pytest-xdist python3-hypothesis
+openmpi-bin gcc python3-dev
 libopenblas0-serial python3-venv python3-setuptools
 python3-sphinx python3-myst-parser furo chromium chromium-driver python3-selenium"
 if [ "${1:-}" = "--paraview" ]; then

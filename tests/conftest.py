@@ -46,3 +46,9 @@ def history(out_dir):
 @pytest.fixture
 def cli():
     return run_cli
+
+
+def pytest_collection_modifyitems(items):
+    """Tests marked ``long`` first: under ``pytest -n auto`` (pytest-xdist) they then start at once, instead
+    of one finishing alone at the end while the other processes wait."""
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)

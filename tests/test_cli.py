@@ -5,12 +5,13 @@ solved (summary.json), doubtful results, and the safety net for internal errors 
 import os
 import signal
 import subprocess
+import textwrap
 import time
 from pathlib import Path
 
 import pytest
 
-from conftest import PYTHON, ROOT, history, mpirun_prefix, summary
+from conftest import PYTHON, ROOT, history, mpirun_prefix, run, summary
 from test_bad_input import ERROR, FAST, TIMEOUT, assert_bad_input, cli
 
 SMALL = ["--set", "mesh.cells=[4,2]", "--quiet"]
@@ -265,3 +266,27 @@ def test_an_interrupt_swallowed_by_a_finaliser_prints_no_traceback():
     finally:
         sys.unraisablehook = before
     assert [u.exc_type for u in seen] == [ValueError]
+
+
+def test_gmsh_imported_after_the_handlers_keeps_them():
+    """gmsh is imported on first use (not at start-up: 0.4 s a run without gmsh need not pay); gmsh 4.8
+    (bookworm) sets SIGINT to SIG_DFL when imported, and finalize() restores what it replaced: the
+    command line's Ctrl-C handler must survive both, or Ctrl-C while a gmsh case runs would kill the
+    run without keeping its finished levels. (In a child process: this one may have imported gmsh.)"""
+    code = textwrap.dedent("""
+        import signal, sys
+        from mpi4py import MPI
+        from nc_dolfinx.cli import interrupt
+        from nc_dolfinx.output import provenance
+        interrupt.install(MPI.COMM_WORLD)
+        ours = signal.getsignal(signal.SIGINT)
+        assert provenance.versions()["gmsh"] and "gmsh" not in sys.modules
+        from nc_dolfinx.mesh.gmsh_io import import_gmsh
+        gmsh = import_gmsh()
+        kept_at_import = signal.getsignal(signal.SIGINT) is ours
+        gmsh.initialize()
+        gmsh.finalize()
+        print(kept_at_import, signal.getsignal(signal.SIGINT) is ours, provenance.versions()["gmsh"] == gmsh.__version__)
+    """)
+    out = run(["-c", code])
+    assert out.returncode == 0 and out.stdout.split() == ["True", "True", "True"], out.stdout + out.stderr

@@ -18,6 +18,9 @@ from conftest import PYTHON, ROOT
 
 import nc_dolfinx as nc
 
+# CI builds the site on one release (pyproject.toml): its demos run on every release in test_demos.py.
+pytestmark = pytest.mark.one_release
+
 INSTALL = "run `sh install.sh` as root (it installs the documentation and browser packages)"
 BUILD_TIMEOUT = 1200  # seconds: the four demos run at their small size inside the build
 DEMO_PAGE = "demos/demo_paper_setting.html"

@@ -26,6 +26,9 @@ from hypothesis import Phase, given, settings
 from fuzz_inputs import (FAMILIES, SUPPRESS, describe, fuzz_inputs, input_key, run_input, self_check,
                          signature)
 
+# CI runs these on one release (pyproject.toml): what they find is the input handling all releases share.
+pytestmark = pytest.mark.one_release
+
 PROFILE = os.environ.get("NC_FUZZ_PROFILE", "quick")
 LONG = PROFILE == "long"
 EXAMPLES = int(os.environ.get("NC_FUZZ_EXAMPLES", 360 if LONG else 36))
@@ -86,6 +89,7 @@ def test_the_fuzzer_writes_the_problem_files_it_means():
     check()
 
 
+@pytest.mark.long
 def test_command_line_keeps_its_error_contract_on_1_rank():
     """Every family of inputs in turn (so that each is tried), EXAMPLES inputs in all."""
     per_family = -(-EXAMPLES // len(FAMILIES))

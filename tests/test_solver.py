@@ -474,6 +474,8 @@ def test_petsc_options_from_the_command_line_and_the_problem_file(tmp_path):
     assert iterative["petsc_options"]["in_effect"]["pc_type"] == "hypre" and iterative["linear_iterations"] > default
 
 
+@pytest.mark.long
+@pytest.mark.one_release  # CI: a benchmark's table; its members converge on every release in the other tests
 def test_benchmark_family_runs_and_every_member_converges(tmp_path):
     """benchmarks/family.py end to end on 16x16 squares and 4x4x4 cubes (no timing is checked here):
     every member of the family, 2D and 3D, converges with no options and no fallback, on 1 rank."""

@@ -6,6 +6,8 @@ temporary directory, and checks its exit status, that every study reported, and 
 import os
 import subprocess
 
+import pytest
+
 from conftest import PYTHON, ROOT
 
 STUDIES = ["1. Manufactured solution", "2. Closed-form check", "3. Penalty → Signorini", "4. Hertz line contact",
@@ -14,6 +16,8 @@ STUDIES = ["1. Manufactured solution", "2. Closed-form check", "3. Penalty → S
            "12. 3D penalty → Signorini", "13. 3D parallel invariance"]
 
 
+@pytest.mark.long
+@pytest.mark.one_release  # CI: its studies' checks run on every release in the other tests
 def test_quick_verification_passes(tmp_path):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.run([PYTHON, str(ROOT / "verification" / "verify.py"), "--quick", "--out", str(tmp_path)],

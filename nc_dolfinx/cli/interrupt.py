@@ -52,13 +52,10 @@ def install(comm, leave=None):
 
 
 def _initialise_libraries_that_set_signals():
-    """PETSc installs C signal handlers when initialised, and importing gmsh sets SIGINT to SIG_DFL (and
-    its finalize() restores the handler found at import): both must happen before ours are installed."""
+    """PETSc installs C signal handlers when initialised: that must happen before ours are installed.
+    gmsh is not imported here (0.4 s a run without gmsh need not pay): nc_dolfinx imports it on first use
+    and keeps the handler in place (``mesh.gmsh_io.import_gmsh``)."""
     from petsc4py import PETSc  # noqa: F401
-    try:
-        import gmsh  # noqa: F401
-    except ImportError:
-        pass
 
 
 def _quiet_about_swallowed_interrupts(unraisable):

@@ -6,13 +6,17 @@ as a string. The model is checked on the rank that holds it for everything DOLFI
 assert on or crash over; an error is broadcast and raised on every rank together, so no rank is left
 waiting for one that failed.
 
-``gmsh`` is imported inside the functions that call it: loading it takes 0.3 s that only gmsh users pay.
+``gmsh`` is imported inside the functions that call it (:func:`import_gmsh`): loading it takes 0.4 s that
+only gmsh users pay.
 """
 import inspect
 import os
 import shutil
+import signal
 import stat
+import sys
 import tempfile
+import threading
 
 import numpy as np
 
@@ -23,6 +27,20 @@ from .tagged import SUPPORTED, from_dolfinx
 ENTITY = {0: "point", 1: "curve", 2: "surface", 3: "volume"}
 FACETS_OF_CELLS = {2: "edges", 3: "faces"}
 MSH_SIGNATURE = b"$MeshFormat"  # the first bytes of every MSH 2 and 4 file, ASCII and binary
+
+
+def import_gmsh():
+    """The ``gmsh`` module, imported on first use. gmsh 4.8 (bookworm) sets SIGINT to SIG_DFL when imported
+    (4.13 and later do so in ``initialize`` and undo it in ``finalize``); the handler in place before, the
+    command line's (``cli/interrupt.py``), is put back at once, so Ctrl-C still ends a run cleanly, and
+    4.8's ``finalize`` restores it too (it keeps the handler it replaced)."""
+    if "gmsh" in sys.modules:
+        return sys.modules["gmsh"]
+    before = signal.getsignal(signal.SIGINT)
+    import gmsh
+    if before is not None and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, before)
+    return gmsh
 
 
 def _file(path):
@@ -46,7 +64,7 @@ def from_gmsh(comm, path):
     ``MergeFile`` also merges ``<file>.opt`` if that exists — as a script (gmsh's GUI saves display options
     there); so gmsh reads the file through a link in a private temporary folder, where there is none.
     A missing, unreadable or special file (a directory, a FIFO) is refused too, without waiting on it."""
-    import gmsh
+    gmsh = import_gmsh()
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     try:
@@ -92,7 +110,7 @@ def _not_a_mesh_file(path):
 def _open_mesh_file(path):
     """``gmsh.open`` of the checked file through a link in a new private folder (no ``.opt`` beside it);
     None, or gmsh's error as one line."""
-    import gmsh
+    gmsh = import_gmsh()
     folder = tempfile.mkdtemp(prefix="nc_dolfinx_msh_")
     try:
         link = os.path.join(folder, os.path.basename(str(path)))
@@ -120,7 +138,7 @@ def from_gmsh_model(comm, model=None, rank=0, build=None):
     failed: ValueError: ..."), instead of a job whose other ranks wait for ``rank`` forever in the
     collective call it never reaches. Without ``build`` the caller builds the model and initialises and
     finalises gmsh (an exception before this call then stops one rank only: use ``build`` under MPI)."""
-    import gmsh
+    gmsh = import_gmsh()
     if build is not None:
         return _built_model(comm, model, rank, build)
     model = gmsh.model if model is None else model
@@ -132,7 +150,7 @@ def from_gmsh_model(comm, model=None, rank=0, build=None):
 
 def _built_model(comm, model, rank, build):
     """from_gmsh_model with ``build`` (see there)."""
-    import gmsh
+    gmsh = import_gmsh()
     if not callable(build):
         raise TypeError(f"build must be a callable, build(gmsh) or build(), got {type(build).__name__}")
     if not 0 <= rank < comm.size:

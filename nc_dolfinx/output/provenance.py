@@ -1,13 +1,17 @@
 """What a result was computed with: versions of the stack and the command line."""
 import importlib
+import importlib.util
 import os
 import platform
+import re
 import sys
 
 PACKAGES = ("nc_dolfinx", "dolfinx", "petsc4py", "mpi4py", "ufl", "ffcx", "basix", "gmsh", "numpy")
 
 
 def _version(module_name):
+    if module_name == "gmsh" and module_name not in sys.modules:
+        return _gmsh_version_unimported()
     try:
         module = importlib.import_module(module_name)
     except Exception:  # a missing or broken optional package is recorded, not fatal
@@ -20,6 +24,18 @@ def _version(module_name):
         except metadata.PackageNotFoundError:
             return None
     return str(version)
+
+
+def _gmsh_version_unimported():
+    """gmsh's version read from its module's source (``GMSH_API_VERSION = "4.8.0"``; Debian's python3-gmsh
+    has no package metadata): a run that did not use gmsh does not pay its 0.4 s import for a version."""
+    try:
+        spec = importlib.util.find_spec("gmsh")
+        with open(spec.origin, encoding="utf-8", errors="replace") as source:
+            found = re.search(r'^GMSH_API_VERSION\s*=\s*["\']([^"\']+)', source.read(), re.MULTILINE)
+    except Exception:  # not installed, or not a source file: recorded as missing, not fatal
+        return None
+    return found.group(1) if found else None
 
 
 def versions():

@@ -37,7 +37,6 @@ import numpy as np
 import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
-from scipy import optimize
 
 import dolfinx.fem.petsc as fem_petsc
 from dolfinx import fem
@@ -94,6 +93,7 @@ def _check_friction_limit(along, key):
     base = load / (load @ load)  # λ L(base) = 1
     others = rigid.null_space(np.outer(load, load))  # λ L = 0 along them
     if others.shape[1]:
+        from scipy import optimize  # here: importing it costs every run 0.06 s at start-up
         found = optimize.minimize(lambda z: along.capacity(base + others @ z), np.zeros(others.shape[1]),
                                   method="Nelder-Mead", options={"xatol": 1e-6 * np.linalg.norm(base), "fatol": 1e-9,
                                                                  "initial_simplex": _simplex(others.shape[1], base)})
