@@ -9,6 +9,8 @@ waiting for one that failed.
 ``gmsh`` is imported inside the functions that call it (:func:`import_gmsh`): loading it takes 0.4 s that
 only gmsh users pay.
 """
+import contextlib
+import importlib
 import inspect
 import os
 import shutil
@@ -30,17 +32,35 @@ MSH_SIGNATURE = b"$MeshFormat"  # the first bytes of every MSH 2 and 4 file, ASC
 
 
 def import_gmsh():
-    """The ``gmsh`` module, imported on first use. gmsh 4.8 (bookworm) sets SIGINT to SIG_DFL when imported
-    (4.13 and later do so in ``initialize`` and undo it in ``finalize``); the handler in place before, the
-    command line's (``cli/interrupt.py``), is put back at once, so Ctrl-C still ends a run cleanly, and
-    4.8's ``finalize`` restores it too (it keeps the handler it replaced)."""
+    """The ``gmsh`` module, imported on first use, with the SIGINT handler in place kept (:func:`_keep_sigint`):
+    gmsh 4.8 (bookworm) sets SIGINT to SIG_DFL when imported."""
     if "gmsh" in sys.modules:
         return sys.modules["gmsh"]
+    return _keep_sigint(lambda: importlib.import_module("gmsh"))
+
+
+@contextlib.contextmanager
+def gmsh_session():
+    """``gmsh.initialize()`` … ``gmsh.finalize()``, the SIGINT handler in place kept through both. gmsh sets
+    SIGINT to SIG_DFL (4.8 when imported, 4.13 and 4.15 in ``initialize``) and 4.13 and 4.15 never restore
+    it (``finalize`` reads a module variable that ``initialize`` assigned as a local): without this, Ctrl-C
+    after a gmsh mesh was built would kill a run on trixie and sid instead of ending it cleanly."""
+    gmsh = import_gmsh()
+    _keep_sigint(gmsh.initialize)
+    try:
+        yield gmsh
+    finally:
+        _keep_sigint(gmsh.finalize)
+
+
+def _keep_sigint(call):
+    """``call()``, then the SIGINT handler found before it put back (the command line's, cli/interrupt.py)."""
     before = signal.getsignal(signal.SIGINT)
-    import gmsh
-    if before is not None and threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, before)
-    return gmsh
+    try:
+        return call()
+    finally:
+        if before is not None and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, before)
 
 
 def _file(path):
@@ -64,10 +84,8 @@ def from_gmsh(comm, path):
     ``MergeFile`` also merges ``<file>.opt`` if that exists — as a script (gmsh's GUI saves display options
     there); so gmsh reads the file through a link in a private temporary folder, where there is none.
     A missing, unreadable or special file (a directory, a FIFO) is refused too, without waiting on it."""
-    gmsh = import_gmsh()
-    gmsh.initialize()
-    gmsh.option.setNumber("General.Terminal", 0)
-    try:
+    with gmsh_session() as gmsh:
+        gmsh.option.setNumber("General.Terminal", 0)
         error = None
         if comm.rank == 0:
             error = _not_a_mesh_file(path)
@@ -75,8 +93,6 @@ def from_gmsh(comm, path):
                 error = _open_mesh_file(path)
         _raise_everywhere(comm, error, 0)
         return _to_domain(comm, gmsh.model, 0, f"mesh file '{_file(path)}'")
-    finally:
-        gmsh.finalize()
 
 
 def _not_a_mesh_file(path):
@@ -150,23 +166,19 @@ def from_gmsh_model(comm, model=None, rank=0, build=None):
 
 def _built_model(comm, model, rank, build):
     """from_gmsh_model with ``build`` (see there)."""
-    gmsh = import_gmsh()
     if not callable(build):
         raise TypeError(f"build must be a callable, build(gmsh) or build(), got {type(build).__name__}")
     if not 0 <= rank < comm.size:
         raise ValueError(f"rank {rank} is not a rank of the communicator (size {comm.size})")
     error = None
     if comm.rank == rank:
-        gmsh.initialize()
-        try:
+        with gmsh_session() as gmsh:
             try:
                 build(gmsh) if _takes_an_argument(build) else build()
             except Exception as err:
                 error = f"the gmsh model built on rank {rank} failed: {type(err).__name__}: {brief_text(err, 300)}"
             _raise_everywhere(comm, error, rank)
             return from_gmsh_model(comm, model, rank)
-        finally:
-            gmsh.finalize()
     _raise_everywhere(comm, error, rank)
     return from_gmsh_model(comm, model, rank)
 
