@@ -54,7 +54,7 @@ def install(comm, leave=None):
 def _initialise_libraries_that_set_signals():
     """PETSc installs C signal handlers when initialised: that must happen before ours are installed.
     gmsh is not imported here (0.4 s a run without gmsh need not pay): nc_dolfinx imports it on first use
-    and keeps the handler in place (``mesh.gmsh_io.import_gmsh``)."""
+    and keeps the handler in place through the import and each session (``mesh.gmsh_io.gmsh_session``)."""
     from petsc4py import PETSc  # noqa: F401
 
 
