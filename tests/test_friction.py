@@ -228,3 +228,34 @@ def test_the_newton_finish_replaces_the_passes_tail():
         assert off["friction_newton"] == 0
     assert sum(r["friction_passes"] for r in runs["true"]) < sum(r["friction_passes"] for r in runs["false"])
     assert runs["true"][-1]["friction_newton"] >= 1
+
+
+@pytest.fixture(scope="module")
+def creeping_increments(tmp_path_factory):
+    """tests/mpi/creeping_increment.py on 1, 2 and 3 ranks: {ranks: its npz}."""
+    folder = tmp_path_factory.mktemp("creeping")
+    results = {}
+    for nprocs in (1, 2, 3):
+        out = folder / f"np{nprocs}.npz"
+        proc = run([ROOT / "tests" / "mpi" / "creeping_increment.py", out], nprocs)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        results[nprocs] = dict(np.load(out))
+    return results
+
+
+@pytest.mark.parametrize("nprocs", [1, 2, 3])
+def test_a_creeping_warm_increment_goes_to_the_continuation(creeping_increments, nprocs):
+    """The last increment of a load path that extends the slip zone under a stiff foundation (the family's
+    1e4-1-mu0.1, 64 cells): the passes at ε_r creep (their line search cuts step after step), and after
+    friction_creeping_steps cut steps in a row the ε-continuation of the cold start takes over from there.
+    It ends at the same u_h as the passes alone (to 1e-9 of the largest displacement), with the
+    continuation's stages run (≥ 7 passes, against 2) and in fewer Newton steps (measured 23 against 31); the
+    same on 1, 2 and 3 ranks (nodal values to 1e-9)."""
+    result = creeping_increments[nprocs]
+    scale = np.abs(result["passes_values"]).max()
+    assert str(result["default_reason"]).startswith("CONVERGED") and str(result["passes_reason"]).startswith("CONVERGED")
+    np.testing.assert_allclose(result["default_values"], result["passes_values"], atol=1e-9 * scale, rtol=0)
+    assert result["default_passes"] >= 7 > result["passes_passes"]
+    assert result["default_newton"] < result["passes_newton"]
+    np.testing.assert_allclose(result["default_values"], creeping_increments[1]["default_values"],
+                               atol=1e-9 * scale, rtol=0)

@@ -4,7 +4,7 @@ normal compliance law and the regularised Coulomb law on Γ_C exactly (the bump 
 there), and Dörfler-adaptive refinement reaches the error of uniform refinement with clearly fewer dofs,
 with a bounded effectivity on both. See docs/src/manufactured_friction_layer.md for the measurements
 behind the margins."""
-import math
+import importlib.util
 
 import pytest
 import sympy as sp
@@ -12,6 +12,12 @@ import sympy as sp
 import test_friction_manufactured as tfm
 from conftest import ROOT
 from test_friction_manufactured import slope
+
+# verification/common.py's interpolation, loaded under a name of its own (benchmarks/ has a `common` too)
+_spec = importlib.util.spec_from_file_location("verification_common", ROOT / "verification" / "common.py")
+verification_common = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(verification_common)
+loglog_interpolate = verification_common.loglog_interpolate
 
 CASES = ROOT / "nc_dolfinx" / "cases"
 LAYER = {2: CASES / "manufactured_friction_layer.toml", 3: CASES / "manufactured_friction_layer3d.toml"}
@@ -94,15 +100,6 @@ def both(request):
     return dim, uniform, adaptive
 
 
-def dofs_for(error, rows):
-    """The dofs at which ``rows`` reach ``error`` (log-log interpolation; None if they never do)."""
-    for a, b in zip(rows, rows[1:]):
-        if b["h1_error"] <= error < a["h1_error"]:
-            t = math.log(a["h1_error"] / error) / math.log(a["h1_error"] / b["h1_error"])
-            return math.exp(math.log(a["dofs"]) + t * math.log(b["dofs"] / a["dofs"]))
-    return None
-
-
 def test_adaptive_needs_fewer_dofs_than_uniform(both):
     """Uniform from 4×4 to 128×128 (33282 dofs; 3D from 4³ to 16³, 14739 dofs) against Dörfler θ = 0.5:
     adaptive reaches the finest uniform error with fewer than a third of its dofs (measured 6.9× fewer in
@@ -113,7 +110,7 @@ def test_adaptive_needs_fewer_dofs_than_uniform(both):
     faster while the bump is being resolved (measured −0.40; −0.31 over the last step alone)."""
     dim, uniform, adaptive = both
     target = uniform[-1]["h1_error"]
-    need = dofs_for(target, adaptive)
+    need = loglog_interpolate(target, [r["h1_error"] for r in adaptive], [r["dofs"] for r in adaptive])
     assert need is not None
     assert uniform[-1]["dofs"] / need > 3.0
     assert adaptive[-1]["h1_error"] < (0.5 if dim == 2 else 0.6) * target

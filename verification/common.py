@@ -24,6 +24,18 @@ def fitted_slope(x, y):
     return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
 
 
+def loglog_interpolate(x, xs, ys):
+    """y at x by linear interpolation of log y against log x between the points (xs, ys), xs monotone
+    (increasing or decreasing: dofs against errors either way); None outside their range."""
+    lx, ly = np.log(np.asarray(xs, float)), np.log(np.asarray(ys, float))
+    if lx[0] > lx[-1]:
+        lx, ly = lx[::-1], ly[::-1]
+    t = math.log(x)
+    if not lx[0] <= t <= lx[-1]:
+        return None
+    return math.exp(np.interp(t, lx, ly))
+
+
 def spread(values):
     """max/min − 1 of positive values (relative variation)."""
     values = np.asarray(values, float)

@@ -15,9 +15,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import loglog_interpolate  # noqa: E402
 from manufactured_friction import adaptive_table, run, uniform_table  # noqa: E402
 
-CASES = {2: ("manufactured_friction_layer", "8×8"), 3: ("manufactured_friction_layer3d", "4³")}
+# dimension -> (case, its coarsest mesh, uniform levels of the full run, of --quick)
+CASES = {2: ("manufactured_friction_layer", "8×8", 6, 4), 3: ("manufactured_friction_layer3d", "4³", 4, 3)}
 
 
 def header(argv):
@@ -28,14 +30,8 @@ def header(argv):
 
 
 def uniform_dofs_for(error, uniform):
-    """The dofs a uniform mesh needs for ``error``: log-log interpolation between the uniform levels
-    (None outside their range)."""
-    ue = np.log([r["h1_error"] for r in uniform])
-    ud = np.log([r["dofs"] for r in uniform])
-    x = math.log(error)
-    if not ue[-1] <= x <= ue[0]:
-        return None
-    return math.exp(np.interp(x, ue[::-1], ud[::-1]))  # errors decrease along the uniform levels
+    """The dofs a uniform mesh needs for ``error`` (between the uniform levels; None outside their range)."""
+    return loglog_interpolate(error, [r["h1_error"] for r in uniform], [r["dofs"] for r in uniform])
 
 
 def savings_table(adaptive, uniform):
@@ -53,9 +49,9 @@ def savings_table(adaptive, uniform):
 def main(argv):
     quick = "--quick" in argv
     dim = 3 if "--3d" in argv else 2
-    case, coarsest = CASES[dim]
+    case, coarsest, full_levels, quick_levels = CASES[dim]
     header(argv)
-    levels = (4 if quick else 6) if dim == 2 else (3 if quick else 4)
+    levels = quick_levels if quick else full_levels
     print(f"## Uniform, {coarsest}, {levels} levels\n")
     uniform, seconds = run(case, "--refine", "uniform", "--levels", str(levels))
     uniform_table(uniform, dim, seconds)

@@ -7,11 +7,14 @@ import re
 import sys
 
 PACKAGES = ("nc_dolfinx", "dolfinx", "petsc4py", "mpi4py", "ufl", "ffcx", "basix", "gmsh", "numpy")
+# Packages whose version is read from a variable of their source while a run has not imported them: gmsh's
+# import takes 0.4 s, and Debian's python3-gmsh has no package metadata.
+VERSION_IN_SOURCE = {"gmsh": "GMSH_API_VERSION"}
 
 
 def _version(module_name):
-    if module_name == "gmsh" and module_name not in sys.modules:
-        return _gmsh_version_unimported()
+    if module_name in VERSION_IN_SOURCE and module_name not in sys.modules:
+        return _version_from_source(module_name, VERSION_IN_SOURCE[module_name])
     try:
         module = importlib.import_module(module_name)
     except Exception:  # a missing or broken optional package is recorded, not fatal
@@ -26,13 +29,13 @@ def _version(module_name):
     return str(version)
 
 
-def _gmsh_version_unimported():
-    """gmsh's version read from its module's source (``GMSH_API_VERSION = "4.8.0"``; Debian's python3-gmsh
-    has no package metadata): a run that did not use gmsh does not pay its 0.4 s import for a version."""
+def _version_from_source(module_name, variable):
+    """The string assigned to ``variable`` at the start of a line of the module's source (``GMSH_API_VERSION
+    = "4.8.0"``), without importing it."""
     try:
-        spec = importlib.util.find_spec("gmsh")
+        spec = importlib.util.find_spec(module_name)
         with open(spec.origin, encoding="utf-8", errors="replace") as source:
-            found = re.search(r'^GMSH_API_VERSION\s*=\s*["\']([^"\']+)', source.read(), re.MULTILINE)
+            found = re.search(rf'^{variable}\s*=\s*["\']([^"\']+)', source.read(), re.MULTILINE)
     except Exception:  # not installed, or not a source file: recorded as missing, not fatal
         return None
     return found.group(1) if found else None

@@ -70,6 +70,7 @@ class NonlinearForms:
     j_t: ufl.Form = None
     j_t_jacobian: ufl.Form = None
     frozen: object = None
+    previous: object = None  # u at the previous load state (Δu = u − previous)
     epsilon: object = None  # the regularisation's ε_r (a Constant: the solver's continuation sets it)
     # The consistent Jacobian of the Γ_C residual, the bound F(u), ε(u) of u itself (ū = u): not symmetric
     consistent_jacobian: ufl.Form = None
@@ -111,7 +112,7 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
         pieces.j_t = ufl.derivative(frictional_energy, u, v)
         pieces.j_t_jacobian = ufl.derivative(pieces.j_t, u, du)
         pieces.slip_stiffening = friction.slip_stiffening(u, du, v, bound, law) * dC
-        pieces.frozen, pieces.epsilon = law.frozen, law.epsilon
+        pieces.frozen, pieces.previous, pieces.epsilon = law.frozen, law.previous, law.epsilon
         consistent = ufl.replace(pieces.contact_residual, {law.frozen: u})
         pieces.consistent_jacobian = ufl.derivative(consistent, u, du)
     mass = c_n * normal_displacement(du, n) * normal_displacement(v, n) * dC

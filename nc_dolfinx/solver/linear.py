@@ -46,6 +46,7 @@ OWN_DEFAULTS = {
     "creeping_steps": 10,          # see _Creeping (0: never)
     "friction_passes": 100,        # the most passes of the fixed point on the friction bound (see _fixed_point)
     "friction_newton": True,       # the fixed point's consistent Newton finish (see _consistent_newton)
+    "friction_creeping_steps": 3,  # a warm pass cut this often in a row: the ε-continuation (see _fixed_point)
 }
 
 # hypre's BoomerAMG, the iterative preset's preconditioner (cold and warm starts, 2D and 3D): classical AMG

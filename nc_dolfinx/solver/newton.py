@@ -63,7 +63,8 @@ class _LineSearchFailure(Exception):
 
 class _Creeping(Exception):
     """``creeping_steps`` Newton steps in a row were cut short by the line search: the contact zone grows a
-    few points a step (see _retry_c_n_continuation); the SNES solve is abandoned for the c_n continuation."""
+    few points a step (see _retry_c_n_continuation); the SNES solve is abandoned for the c_n continuation
+    (with friction, a warm pass's stick/slip front: for the ε-continuation, see FrictionFixedPoint)."""
 
 
 class _ConvergedToRoundoff(Exception):
@@ -167,7 +168,7 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         self.left_cg = False  # see _leave_cg
         self.bilateral_candidate = False  # see _bilateral_predictor
         self.extra_krylov = 0  # Krylov iterations SNES does not count (the predictor's)
-        self.cut_steps, self.creeping_check, self.crept = 0, False, False  # see _Creeping
+        self.cut_steps, self.creeping_check, self.crept, self.creeping_limit = 0, False, False, 0  # see _Creeping
         self._reset_preconditioner_state()
 
     def _configure(self, matrix):
@@ -327,8 +328,7 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         scaled = option_is_true(self.options["line_minimisation"]) and self._line_minimisation(x, y)
         self.predicted_full_step = not scaled
         self.cut_steps = self.cut_steps + 1 if scaled else 0
-        limit = float(self.options["creeping_steps"])
-        if self.creeping_check and 0 < limit <= self.cut_steps:
+        if self.creeping_check and 0 < self.creeping_limit <= self.cut_steps:
             raise _Creeping()
         return True
 
@@ -710,9 +710,11 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
 
     # Fallbacks after a failed SNES solve, in this order, each from the last good iterate. None costs
     # anything unless a solve fails.
-    def _solve_load_step(self, x, stats, factor, loose=0.0):
+    def _solve_load_step(self, x, stats, factor, loose=0.0, creeping_limit=0):
         """Solve at the current load factor from x (the previous step's solution); ``factor``: its
-        increment; ``loose``: stop at this ‖F‖ if it is above the usual target. Returns the fallbacks used."""
+        increment; ``loose``: stop at this ‖F‖ if it is above the usual target; ``creeping_limit`` > 0: a
+        solve whose line search cut that many steps in a row ends at once (``self.crept``, x the last
+        iterate), without fallbacks (the friction fixed point's warm pass). Returns the fallbacks used."""
         self.impose_dirichlet_values(x)
         self._residual(self.snes, x, self.b)
         self.initial_norm = self.b.norm()
@@ -723,9 +725,15 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         # 2-3 times the Newton steps of the creeping solve itself, 20-35 on the stiff members of extremes.py)
         self.crept = False
         self.creeping_check = option_is_true(self.options["fallbacks"]) and self.bilateral[0] is not None
+        self.creeping_limit = float(self.options["creeping_steps"])
+        if creeping_limit > 0:
+            self.creeping_check, self.creeping_limit = True, creeping_limit
         try:
             self.bilateral_candidate = x.norm() == 0.0  # see _bilateral_predictor
-            if self._snes_solve(x, stats, target) or not option_is_true(self.options["fallbacks"]):
+            converged = self._snes_solve(x, stats, target)
+            if self.crept and creeping_limit > 0:
+                return used
+            if converged or not option_is_true(self.options["fallbacks"]):
                 if stats.converged_reason.startswith("CONVERGED"):
                     return used
                 raise InputError(f"SNES diverged ({stats.converged_reason}) after {stats.newton_iterations} "
