@@ -78,7 +78,7 @@ class FrictionFixedPoint:
         springs (the increment extended the slip zone under a stiff foundation). The stages of the cold start
         then take over from its last iterate. On the last increment of benchmarks/family.py's 1e4-1-mu0.1
         (128 cells) the passes at ε_r took 40 Newton steps, 472 Krylov iterations, 22 set-ups (12 cut steps
-        in a row); the stages 16–22, 34–108, 12–14. Where they took over from every warm start at once,
+        in a row); with the stages 22, 108, 14. Where they took over from every warm start at once,
         creeping or not, the family's 3D increments took 14–15 Newton steps instead of 11; where they took
         over from creeping nested levels too, 1e4-1-mu0.3's took 23 instead of 10. Returns the fallbacks
         used."""
