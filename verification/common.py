@@ -30,6 +30,8 @@ def loglog_interpolate(x, xs, ys):
     lx, ly = np.log(np.asarray(xs, float)), np.log(np.asarray(ys, float))
     if lx[0] > lx[-1]:
         lx, ly = lx[::-1], ly[::-1]
+    if not np.all(np.diff(lx) > 0):  # (np.interp would answer anyway, wrongly)
+        raise ValueError(f"loglog_interpolate: the points are not monotone: {list(xs)}")
     t = math.log(x)
     if not lx[0] <= t <= lx[-1]:
         return None

@@ -8,11 +8,8 @@ and their ratio to the adaptive dofs. Serial; prints Markdown.
 
 --quick: uniform to 64×64 (16³) only (a smoke run); the full run goes to 256×256 (32³).
 """
-import math
 import sys
 from pathlib import Path
-
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import loglog_interpolate  # noqa: E402
