@@ -301,6 +301,8 @@ CASES = [
     ("own_solver_option_negative_in_file", lambda m, t: ["block", *FAST, "--set",
                                                          "solver.petsc_options.pc_refresh_misfit=-1"],
      "solver option pc_refresh_misfit must be a number >= 0, got '-1'"),
+    ("own_solver_option_infinite", lambda m, t: ["block", *FAST, "-atol_of_load", "inf"],  # (was u = 0, exit 0)
+     "solver option atol_of_load must be a number >= 0, got 'inf'"),
     ("own_solver_flag_not_a_flag", lambda m, t: ["block", *FAST, "-fallbacks", "maybe"],
      "solver option fallbacks must be true or false, got 'maybe'"),
     ("load_steps_not_integer", lambda m, t: ["block", *FAST, "--set", 'solver.load_steps="x"'],

@@ -2,6 +2,7 @@
 reach the same solution; the defaults converge on a stiff penalty that PETSc's defaults did not; options
 given on the command line or in the problem file take effect."""
 import json
+import re
 
 import numpy as np
 import pytest
@@ -395,6 +396,23 @@ def test_auto_picks_by_dimension_size_and_initial_guess():
     assert hypre["pc_type"] == "hypre" and hypre["pc_hypre_boomeramg_relax_type_all"] == "Chebyshev"
     with pytest.raises(InputError):
         resolve_options({"preset": "fast"}, 2, 100, False)
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("atol_of_load", "inf", "solver option atol_of_load must be a number >= 0, got 'inf'"),
+    ("roundoff_factor", "nan", "solver option roundoff_factor must be a number >= 0, got 'nan'"),
+    ("friction_passes", "2.5", "solver option friction_passes must be a whole number >= 0, got '2.5'"),
+    ("friction_creeping_steps", "inf", "solver option friction_creeping_steps must be a whole number >= 0"),
+    ("creeping_steps", "-1", "solver option creeping_steps must be a whole number >= 0, got '-1'"),
+])
+def test_the_solver_s_own_numbers_are_finite_and_whole_where_it_counts(key, value, message):
+    """An own option that would be cut (2.5 passes: 2), overflow (int(inf): a traceback) or accept anything
+    (atol_of_load = inf: u = 0 'converged', exit 0) is refused before the solve, naming it; whole numbers
+    written as floats (TOML's 3.0, 1e1) are accepted."""
+    with pytest.raises(InputError, match=re.escape(message)):
+        resolve_options({key: value}, 2, 100, False)
+    for accepted in ("3", 3.0, "1e1"):
+        assert resolve_options({key: accepted}, 2, 100, False)[1][key] == accepted
 
 
 def test_rigid_body_modes_in_3d_are_the_kernel_of_the_free_stiffness():

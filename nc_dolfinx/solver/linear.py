@@ -7,6 +7,8 @@ works, as in dolfiny. The preset ``auto`` (the default) is resolved when the mes
 ``choose_preset``); ``preset`` itself is an option of the same layers (``-preset iterative`` on the command
 line). The rigid-body modes are the preconditioners' near-nullspace.
 """
+import math
+
 from petsc4py import PETSc
 
 from ..errors import InputError
@@ -170,17 +172,22 @@ def resolve_options(options, dim, dofs, warm_start):
 
 
 def _check_own_option(key, value):
-    """The solver's own options are not PETSc's, so PETSc does not check them: a number ≥ 0 or a flag."""
-    if isinstance(OWN_DEFAULTS[key], bool):
+    """The solver's own options are not PETSc's, so PETSc does not check them: a flag, or a finite number ≥ 0,
+    whole where the solver counts with it (``-friction_passes 2.5`` is refused, not cut to 2; ``inf`` is
+    refused everywhere: ``-atol_of_load inf`` would have taken u = 0 as converged)."""
+    default = OWN_DEFAULTS[key]
+    if isinstance(default, bool):
         if value is not None and str(value).lower() not in ("true", "false", "1", "0", "yes", "no", "on", "off"):
             raise InputError(f"solver option {key} must be true or false, got '{value}'")
         return
     try:
         number = float(value)
     except (TypeError, ValueError):
-        number = float("nan")
-    if not number >= 0:
-        raise InputError(f"solver option {key} must be a number >= 0, got '{value}'")
+        number = math.nan
+    whole = isinstance(default, int)
+    if not (math.isfinite(number) and number >= 0 and (number.is_integer() or not whole)):
+        raise InputError(f"solver option {key} must be {'a whole number' if whole else 'a number'} >= 0, "
+                         f"got '{value}'")
 
 
 def option_is_true(value):
