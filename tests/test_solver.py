@@ -377,6 +377,9 @@ def test_auto_picks_by_dimension_size_and_initial_guess():
     assert choose_preset(2, 132098, warm_start=False) == "iterative"
     assert choose_preset(2, 132098, warm_start=True) == "direct"
     assert choose_preset(2, 5_000_000, warm_start=True) == "iterative"
+    # with friction the stick and slip zones move during a warm solve: BoomerAMG's set-ups are the cheaper
+    assert choose_preset(2, 132098, warm_start=True, friction=True) == "iterative"
+    assert choose_preset(2, 5000, warm_start=True, friction=True) == "direct"
     # the layers override the preset: problem file < command line, and a user's option < the preset's
     name, options = resolve_options(solver_options("auto", {"preset": "iterative", "ksp_rtol": 1e-6},
                                                    {"pc_hypre_boomeramg_P_max": 2}), 2, 100, False)

@@ -127,7 +127,7 @@ def solver_options(preset="auto", problem_options=None, cli_options=None):
     return options
 
 
-def choose_preset(dim, dofs, warm_start):
+def choose_preset(dim, dofs, warm_start, friction=False):
     """The linear strategy of ``preset = "auto"``, from what is known before solving (measured in
     benchmarks/README.md, "auto"):
 
@@ -139,11 +139,21 @@ def choose_preset(dim, dofs, warm_start):
       Cholesky of J(u_0), nearly the final Jacobian: 1–4 CG iterations per level (nested levels of the
       family's square: 0.17–0.45 x the linear floor; spot checks with BoomerAMG 0.43–0.47 x); with GAMG
       the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct (corner: within 10 %).
+      Not with ``friction``: there the stick and slip zones move during the solve, so J(u_0) is not the
+      final Jacobian, and P is rebuilt up to ~20 times (the last increment of benchmarks/family.py's
+      friction members: 1–17 set-ups); a Cholesky set-up costs twice BoomerAMG's (0.11 s against 0.05 s on
+      the family's square at 128 cells) and a solve with it twice a V-cycle (0.016 s, 0.008 s). Measured
+      there (the nine 2D friction members, 1 rank, ratios to the linear floor summed over the members,
+      Cholesky -> BoomerAMG): the last increment of a load path 95 -> 68 at 33,282 dofs and 112 -> 90 at
+      132,098 (within 2 x: 3 -> 5 and 2 -> 4 of 9), a nested level 14 -> 10 (within 2 x: 6 -> 8 of 9); the
+      stiff foundation's 1e4-1-mu0.1 lost (its increment 23 -> 29 x, 26 -> 39 x), 1e4-1-mu0.3 gained
+      (24 -> 13 x, 42 -> 21 x).
     - otherwise (2D cold starts, large meshes): CG + AMG, 1.4–2.8x faster than the factorisation on a
       cold start from 1e4 dofs on (block, corner, the family square).
     The number of ranks did not change these choices in the measurements.
     """
-    if dim == 2 and (dofs <= COLD_DIRECT_MAX_DOFS or (warm_start and dofs <= WARM_DIRECT_MAX_DOFS)):
+    warm_direct = warm_start and not friction and dofs <= WARM_DIRECT_MAX_DOFS
+    if dim == 2 and (dofs <= COLD_DIRECT_MAX_DOFS or warm_direct):
         return "direct"
     return "iterative"
 
@@ -152,7 +162,7 @@ COLD_DIRECT_MAX_DOFS = 10_000
 WARM_DIRECT_MAX_DOFS = 1_000_000
 
 
-def resolve_options(options, dim, dofs, warm_start):
+def resolve_options(options, dim, dofs, warm_start, friction=False):
     """NEWTON_DEFAULTS, OWN_DEFAULTS < the preset's options < the user's layers, with "auto" resolved by
     choose_preset, under the settings of the preconditioner in force (preconditioner_settings). The user's
     values are checked first (_check_own_option, check_petsc_option: InputError), numbers as parsed."""
@@ -160,7 +170,7 @@ def resolve_options(options, dim, dofs, warm_start):
     preset = str(user.pop("preset", "auto"))
     if preset not in PRESET_NAMES:
         raise InputError(f"solver preset must be one of {', '.join(PRESET_NAMES)}, got '{preset}'")
-    name = choose_preset(dim, dofs, warm_start) if preset == "auto" else preset
+    name = choose_preset(dim, dofs, warm_start, friction) if preset == "auto" else preset
     resolved = {**NEWTON_DEFAULTS, **OWN_DEFAULTS, **PRESETS[name]}
     for key in user:
         if key in OWN_DEFAULTS:

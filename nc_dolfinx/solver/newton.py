@@ -158,7 +158,8 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         self.comm = V.mesh.comm
         self._assemble_constant_parts(forms)
         dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
-        self.preset, self.options = resolve_options(options, V.dofmap.index_map_bs, dofs, versions.petsc_vec(u).norm() > 0)
+        self.preset, self.options = resolve_options(options, V.dofmap.index_map_bs, dofs,
+                                                    versions.petsc_vec(u).norm() > 0, forms.j_t is not None)
         self.user_keys = {key.lstrip("-") for key in options}
         self.near_nullspace = rigid_body_modes(V)
         self._configure(self.K)
