@@ -141,13 +141,14 @@ def choose_preset(dim, dofs, warm_start, friction=False):
       the adaptive loops of block, hertz and manufactured ran 1.3–1.8x faster direct (corner: within 10 %).
       Not with ``friction``: there the stick and slip zones move during the solve, so J(u_0) is not the
       final Jacobian, and P is rebuilt up to ~20 times (the last increment of benchmarks/family.py's
-      friction members: 1–17 set-ups); a Cholesky set-up costs twice BoomerAMG's (0.11 s against 0.05 s on
+      friction members: 1–19 set-ups); a Cholesky set-up costs twice BoomerAMG's (0.11 s against 0.05 s on
       the family's square at 128 cells) and a solve with it twice a V-cycle (0.016 s, 0.008 s). Measured
       there (the nine 2D friction members, 1 rank, ratios to the linear floor summed over the members,
       Cholesky -> BoomerAMG): the last increment of a load path 95 -> 68 at 33,282 dofs and 112 -> 90 at
-      132,098 (within 2 x: 3 -> 5 and 2 -> 4 of 9), a nested level 14 -> 10 (within 2 x: 6 -> 8 of 9); the
-      stiff foundation's 1e4-1-mu0.1 lost (its increment 23 -> 29 x, 26 -> 39 x), 1e4-1-mu0.3 gained
-      (24 -> 13 x, 42 -> 21 x).
+      132,098 (within 2 x: 3 -> 5 and 2 -> 4 of 9), a nested level 14 -> 10 (within 2 x: 6 -> 8 of 9). In
+      family.py itself (docs/src/performance.md, commit 6b341bc) the 2D increments within 2 x went 4 -> 9
+      of 18 and the nested levels 13 -> 16; where one exact Newton step ends the solve (μ = 1) BoomerAMG
+      takes 4 (1-1-mu1's increment 0.72 -> 1.27 x).
     - otherwise (2D cold starts, large meshes): CG + AMG, 1.4–2.8x faster than the factorisation on a
       cold start from 1e4 dofs on (block, corner, the family square).
     The number of ranks did not change these choices in the measurements.
