@@ -72,6 +72,8 @@ def uniform_table(rows, dim, seconds):
 
 
 def adaptive_table(adaptive, uniform, seconds):
+    # (imported here: checks_friction imports this module for EXACT_FORCE in processes where benchmarks/
+    # common.py may already be `common`; only the scripts that print this table need verification's)
     from common import loglog_interpolate
     print("| level | dofs | ‖u−u_h‖_1 | η/‖u−u_h‖_1 | η_3²/η² | uniform ‖u−u_h‖_1 at these dofs | adaptive/uniform |")
     print("|---|---|---|---|---|---|---|")
