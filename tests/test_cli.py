@@ -3,6 +3,7 @@ levels and says where and why it stopped), one run per result folder, why the lo
 solved (summary.json), doubtful results, and the safety net for internal errors under MPI.
 """
 import os
+import re
 import signal
 import subprocess
 import textwrap
@@ -22,16 +23,19 @@ def leftovers(out):
     return [str(p) for p in Path(out).rglob("*") if p.name.startswith(".")]
 
 
-def assert_kept_levels(out, levels):
-    """Every kept level's files are there, the collection lists exactly them, nothing half-written."""
+def assert_kept_levels(out, levels, collection=None):
+    """Every kept level's files are there, the collection lists exactly them (or the first ``collection``:
+    a SIGKILL between the records), nothing half-written (after a SIGKILL, a record's temporary may stay)."""
     for n in range(levels):
         for suffix in (".xdmf", ".h5", ".pvtu"):
             assert (out / "levels" / f"level_{n:02d}{suffix}").is_file(), f"level {n}: {suffix} missing"
         assert list((out / "levels" / f"level_{n:02d}").glob("piece_*.vtu")), f"level {n}: no VTU piece"
     assert not (out / "levels" / f"level_{levels:02d}.xdmf").exists()
     assert len(history(out)) == levels
-    assert (out / "solution.pvd").read_text().count("<DataSet") == levels
-    assert not leftovers(out), leftovers(out)
+    assert (out / "solution.pvd").read_text().count("<DataSet") == (levels if collection is None else collection)
+    killed_records = re.compile(r"\.(history|solution|summary)\.[0-9a-f]{16}\.tmp\.\w+$")
+    left = [p for p in leftovers(out) if collection is None or not killed_records.search(p)]
+    assert not left, left
 
 
 # --- a failure on a later level -------------------------------------------------------------------
@@ -108,17 +112,20 @@ def test_interrupt_keeps_finished_levels(tmp_path, case, nprocs):
     name = "SIGINT" if nprocs == 1 else "SIGTERM"
     if nprocs > 1 and OPEN_MPI_MAJOR >= 5:
         # Open MPI 5 and 6 (trixie, sid) SIGKILL the ranks 0.25 s after forwarding SIGTERM and stop forwarding
-        # their output (measured): rank 0 may be killed before it marks the summary; the finished levels
-        # stay whole either way, and the summary lists exactly them
+        # their output (measured): rank 0 may be killed before it marks the summary, or between two records
+        # (history.json, history.csv, solution.pvd, then summary.json; seen once on sid under load), which
+        # leaves the records behind history.json by one level. Every level any record lists is whole.
         assert s["status"] in ("interrupted", "running"), text
         kept = len(history(out))
-        assert kept >= 2 and s["levels"] == kept
+        listed = (out / "solution.pvd").read_text().count("<DataSet")
+        assert kept >= 2 and kept - 1 <= s["levels"] <= listed <= kept, (s["levels"], listed, kept)
+        assert_kept_levels(out, kept, collection=listed)
     else:
         assert s["status"] == "interrupted", text
         kept = s["levels"]
         assert kept >= 2 and s["stopped_at_level"] == kept
         assert f"nc_dolfinx: interrupted ({name}) during level {kept}; levels 0–{kept - 1} kept in" in text, text
-    assert_kept_levels(out, kept)
+        assert_kept_levels(out, kept)
 
 
 # --- one run per folder ---------------------------------------------------------------------------
