@@ -16,7 +16,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 PYTHON = "/usr/bin/python3"
@@ -62,11 +61,12 @@ def uniform_table(rows, dim, seconds):
               f"{(r['eta_4'] / r['eta']) ** 2:.2e} | {force:.2e} | {r.get(measure, float('nan')):.4f} |")
     # 2D: the last three levels; 3D (three levels in all): the last two, the first step from 6×6×6 being
     # preasymptotic (its rate in h is 1.3)
-    last = min(3 if dim == 2 else 2, len(rows))
-    slope = np.polyfit(np.log([r["dofs"] for r in rows[-last:]]), np.log([r["h1_error"] for r in rows[-last:]]), 1)[0]
-    eta_slope = np.polyfit(np.log([r["dofs"] for r in rows[-last:]]), np.log([r["eta"] for r in rows[-last:]]), 1)[0]
-    h_slope = np.polyfit(np.log([r["cells"] ** (-1 / dim) for r in rows[-last:]]),
-                         np.log([r["h1_error"] for r in rows[-last:]]), 1)[0]
+    from common import fitted_slope  # (imported here: see adaptive_table)
+    fit = rows[-min(3 if dim == 2 else 2, len(rows)):]
+    last = len(fit)
+    slope = fitted_slope([r["dofs"] for r in fit], [r["h1_error"] for r in fit])
+    eta_slope = fitted_slope([r["dofs"] for r in fit], [r["eta"] for r in fit])
+    h_slope = fitted_slope([r["cells"] ** (-1 / dim) for r in fit], [r["h1_error"] for r in fit])
     print(f"\nfitted over the last {last} levels: ‖u−u_h‖_1 ∝ dofs^{slope:.3f} (optimal: −1/{dim} = {-1 / dim:.3f}) "
           f"= h^{h_slope:.3f}, η ∝ dofs^{eta_slope:.3f}; {seconds:.1f} s\n")
 
