@@ -143,6 +143,64 @@ def test_loads_beyond_friction_are_named_before_newton():
     assert ratio == pytest.approx(shear / (MU * P * 1.0), rel=5e-3)  # base length 1
 
 
+def grid_minimum(along):
+    """min C(τ) over λ L(τ) = 1 (settling._check_friction_limit's problem) by brute force, independent of its
+    Nelder–Mead: a grid of 21 points per free amplitude over ±10 |base|, zoomed 5× around the best point 8
+    times (C is convex, so the best point stays inside the next grid)."""
+    from nc_dolfinx.physics import rigid
+    base = along.load / (along.load @ along.load)
+    others = rigid.null_space(np.outer(along.load, along.load))
+    best, centre, span = along.capacity(base), np.zeros(others.shape[1]), 10 * np.linalg.norm(base)
+    best_z = centre
+    for _ in range(8):
+        axis = np.linspace(-span, span, 21)
+        for z in centre + np.stack(np.meshgrid(*[axis] * others.shape[1]), -1).reshape(-1, others.shape[1]):
+            capacity = along.capacity(base + others @ z)
+            if capacity < best:
+                best, best_z = capacity, z
+        centre, span = best_z, span / 5
+    return best
+
+
+@pytest.mark.parametrize("shear, twist", [(2.9, 1.0), (0.3, 8.5), (0.0, 9.0), (3.1, 0.0), (1.0, 6.0)])
+def test_the_friction_limit_in_3d_is_the_grid_s(monkeypatch, shear, twist):
+    """3D: the limit along the three sliding motions (x, y, the rotation about z) is found by Nelder–Mead
+    over two amplitudes. Against a brute-force grid (grid_minimum): the same decision and the same ratio to
+    the printed digits, also 0.2 % beyond the limit with shear and twist together (measured on 16 loads:
+    2.9 + 1.0: 0.976, held; 0.3 + 8.5: 1.002, refused with 1.0)."""
+    from nc_dolfinx.solver import settling
+    seen = {}
+    check = settling._check_friction_limit
+    monkeypatch.setattr(settling, "_check_friction_limit",
+                        lambda along, key: (seen.setdefault("ratio", 1 / grid_minimum(along)), check(along, key)))
+    problem = block(3, shear=shear, twist=twist)
+    try:
+        nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+        refused = None
+    except InputError as err:
+        refused = float(str(err).split(" with ")[1].split()[0])
+    ratio = seen["ratio"]
+    assert abs(ratio - 1.0) > 1e-3  # (a decision the grid can make)
+    if ratio < 1.0:
+        assert refused is None
+    else:
+        assert refused == pytest.approx(ratio, abs=0.006)  # (printed to 3 digits)
+
+
+def test_a_load_beyond_friction_that_the_check_missed_ends_in_one_clear_error(monkeypatch):
+    """Were the limit check to miss a load beyond friction (0.3 + 8.5 above: 1.002 times the limit), Newton
+    runs, fails, and the fallbacks end in one clear error. The stronger_pc fallback switches CG to GMRES;
+    after the friction solver's consistent steps had set the preconditioning side explicitly, that ended in
+    PETSc's error 56 (GMRES has no unpreconditioned norm with a left preconditioner) on every 3D friction
+    run that reached it."""
+    from nc_dolfinx.solver import settling
+    monkeypatch.setattr(settling, "_check_friction_limit", lambda along, key: None)
+    problem = block(3, shear=0.3, twist=8.5)
+    with pytest.raises(InputError) as err:
+        nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
+    assert str(err.value).startswith("SNES diverged") and "stronger_pc" in str(err.value)
+
+
 def test_the_sliding_motions_stick_at_the_previous_state():
     """Δu_t is measured from the previous load state: a previous state translated along the base moves the
     solution by the same translation (the elastic and normal energies do not see it), exactly."""

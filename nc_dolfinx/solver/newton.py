@@ -533,9 +533,15 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
 
     def _leave_cg(self):
         """GMRES instead of CG from here on in this solve: it needs no definite preconditioner (on an
-        indefinite one, and in the stronger_pc fallback)."""
+        indefinite one, and in the stronger_pc fallback). Preconditioned on the right where CG stopped on
+        the unpreconditioned residual (the iterative preset): GMRES has that norm on the right only, and a
+        side set to LEFT explicitly (as the friction solver's consistent steps leave it) ended the fallback
+        in PETSc's error 56 instead of a solve (3D friction, every time it was reached)."""
         ksp = self.snes.getKSP()
         if ksp.getType() == PETSc.KSP.Type.CG:
+            unpreconditioned = ksp.getNormType() == PETSc.KSP.NormType.UNPRECONDITIONED
+            if unpreconditioned:
+                ksp.setPCSide(PETSc.PC.Side.RIGHT)
             ksp.setType(PETSc.KSP.Type.GMRES)
 
     def _first_krylov_tolerance(self, A):
