@@ -86,8 +86,9 @@ def _check_friction_limit(along, key):
     minimum if λ L(τ) > C(τ) = ∫_Γ_C F̄ |τ_t| for some τ. Searched as min C(τ) over λ L(τ) = 1 (convex; exact
     for one sliding motion, Nelder–Mead over the others' 1–2 amplitudes in 3D: on 16 loads of a 3D block,
     shear and twist, the ratio of a zoomed brute-force grid to 3 digits, also at 1.002 times the limit);
-    a τ found with C(τ) < 1 is a witness, named in the error. (On a flat Γ_C, C of a translation is μ times the pressure's resultant,
-    which the settling has already balanced with the normal load: Coulomb's limit of the exact problem.)"""
+    a τ found with C(τ) < 1 is a witness, named in the error. (On a flat Γ_C, C of a translation is μ times
+    the pressure's resultant, which the settling has already balanced with the normal load: Coulomb's limit
+    of the exact problem.)"""
     load = along.load
     if np.linalg.norm(load) == 0.0:
         return
