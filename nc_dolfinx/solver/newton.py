@@ -539,8 +539,7 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         in PETSc's error 56 instead of a solve (3D friction, every time it was reached)."""
         ksp = self.snes.getKSP()
         if ksp.getType() == PETSc.KSP.Type.CG:
-            unpreconditioned = ksp.getNormType() == PETSc.KSP.NormType.UNPRECONDITIONED
-            if unpreconditioned:
+            if ksp.getNormType() == PETSc.KSP.NormType.UNPRECONDITIONED:  # (asked while CG: GMRES's left side raises)
                 ksp.setPCSide(PETSc.PC.Side.RIGHT)
             ksp.setType(PETSc.KSP.Type.GMRES)
 
