@@ -3,7 +3,6 @@ levels and says where and why it stopped), one run per result folder, why the lo
 solved (summary.json), doubtful results, and the safety net for internal errors under MPI.
 """
 import os
-import re
 import signal
 import subprocess
 import textwrap
@@ -11,6 +10,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+from nc_dolfinx.output import files
 
 from conftest import PYTHON, ROOT, history, mpirun_prefix, run, summary
 from test_bad_input import ERROR, FAST, TIMEOUT, assert_bad_input, cli
@@ -33,8 +34,8 @@ def assert_kept_levels(out, levels, collection=None):
     assert not (out / "levels" / f"level_{levels:02d}.xdmf").exists()
     assert len(history(out)) == levels
     assert (out / "solution.pvd").read_text().count("<DataSet") == (levels if collection is None else collection)
-    killed_records = re.compile(r"\.(history|solution|summary)\.[0-9a-f]{16}\.tmp\.\w+$")
-    left = [p for p in leftovers(out) if collection is None or not killed_records.search(p)]
+    records = ("history.json", "history.csv", "solution.pvd", "summary.json")
+    left = [p for p in leftovers(out) if collection is None or files.temporary_of(p) not in records]
     assert not left, left
 
 

@@ -33,6 +33,22 @@ _UMASK = os.umask(0)
 os.umask(_UMASK)  # (read once: mkstemp makes files 0600, results are made readable as usual)
 
 
+# ResultFolder.replace's temporary name for ``NAME.SUF``: ``.NAME.<16 hex digits>.tmp.SUF`` beside it
+_TEMPORARY = re.compile(r"\.(.+)\.[0-9a-f]{16}\.tmp(\.\w+)?")
+
+
+def temporary_path(target):
+    """Where :meth:`ResultFolder.replace` writes ``target`` before renaming it (a fresh name each call)."""
+    return target.parent / f".{target.stem}.{secrets.token_hex(8)}.tmp{target.suffix}"
+
+
+def temporary_of(path):
+    """The name of the file that ``path`` is :meth:`ResultFolder.replace`'s temporary of, or None (a run
+    killed by SIGKILL between writing and renaming a record leaves one)."""
+    match = _TEMPORARY.fullmatch(Path(path).name)
+    return match.group(1) + (match.group(2) or "") if match else None
+
+
 def _os_error(err, what):
     reason = err.strerror or str(err)
     return f"cannot write '{what}': {reason}"
@@ -182,7 +198,7 @@ class ResultFolder:
         target.parent.mkdir(parents=True, exist_ok=True)
         # The name is recorded before the file exists: a Ctrl-C at any point leaves nothing untracked
         # (with mkstemp, a signal between its return and the record left the file behind).
-        tmp = str(target.parent / f".{target.stem}.{secrets.token_hex(8)}.tmp{target.suffix}")
+        tmp = str(temporary_path(target))
         self.temporary.add(tmp)
         try:
             write(tmp)
@@ -225,7 +241,8 @@ class ResultFolder:
         anything under the folder with the names this class gives its staging and temporary files."""
         if not self.path.is_dir():
             return
-        for path in [*self.path.glob(".partial-*"), *self.path.glob(".probe-*"), *self.path.rglob(".*.tmp*")]:
+        temporaries = [path for path in self.path.rglob(".*") if temporary_of(path)]
+        for path in [*self.path.glob(".partial-*"), *self.path.glob(".probe-*"), *temporaries]:
             shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink(missing_ok=True)
 
 
