@@ -18,6 +18,7 @@ import nc_dolfinx as nc
 from nc_dolfinx.physics import forms
 from nc_dolfinx import dolfinx_versions as versions
 from nc_dolfinx.errors import InputError
+from nc_dolfinx.solver.newton import ROUNDOFF_MEANINGFUL
 from nc_dolfinx.solver import (Forcing, NonlinearSolver, choose_preset, rigid_body_modes, resolve_options,
                                solver_options)
 
@@ -186,7 +187,9 @@ def test_a_stiff_penalty_with_a_gap_ends_at_the_round_off_of_its_residual(nprocs
     its round-off only, and the solve ended with an error after all fallbacks (450 Newton steps; the 3D cube at
     1e12 alike). Now it ends within the residual's round-off, in a few Newton steps and no fallback, at the
     solution of the bilateral law solved independently (which leaves the foundation nowhere: the solution
-    of (7)), to 1e-12 of the largest displacement, on any partition."""
+    of (7)), to 1e-12 of the largest displacement, on any partition. At 1e12 the round-off lies 1e4 times
+    above the target and the solve must end there; at 1e8 within ten times of it, on either side by the CPU
+    and the partition (on an AVX-512 Xeon all three 1e8 cases on 3 ranks reached the target itself)."""
     proc = run([ROOT / "tests" / "mpi" / "roundoff.py"], nprocs)
     assert proc.returncode == 0, proc.stderr[-2000:]
     result = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -195,7 +198,7 @@ def test_a_stiff_penalty_with_a_gap_ends_at_the_round_off_of_its_residual(nprocs
         assert "error" not in case, case
         assert case["reason"].startswith("CONVERGED") and case["recoveries"] == "" and case["newton"] <= 6
         assert case["separated"] == 0.0 and case["to_bilateral"] <= 1e-12
-    assert sum(case["reason"] == "CONVERGED_ROUNDOFF" for case in result.values()) >= 4
+    assert all(case["reason"] == "CONVERGED_ROUNDOFF" for name, case in result.items() if " 1e+12 " in name)
 
 
 @pytest.mark.parametrize("nprocs", [1, 2, 3])
@@ -314,6 +317,39 @@ def objective_history(c_n, m_n):
     energy = fem.assemble_scalar(fem.form(forms.energy(u, fields)))
     solver.destroy()
     return values, energy
+
+
+def test_a_residual_within_a_runaway_s_round_off_ends_no_solve():
+    """A residual within its round-off ends a solve only while (7) still holds to ROUNDOFF_MEANINGFUL of the
+    load: the round-off ν_i = 10 ε (|J_ii| ‖x‖_∞ + |L_i|) grows with ‖x‖_∞, and an iterate that runs away
+    (a 3D block loaded beyond its friction limit slid 3.4e9 far, on an AVX-512 Xeon) made any residual
+    "round-off" (it returned CONVERGED_ROUNDOFF, 2e-3 ‖L‖ out of equilibrium). Each row of F here is half its
+    ν: at ‖x‖_∞ of the solution's size that is a round-off solution, at 3.4e9 it is not."""
+    problem, domain = square(1e4, 1)
+    fields = nc.bind(problem, domain)
+    V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
+    u = fem.Function(V)
+    solver = NonlinearSolver(forms.normal_compliance_forms(u, fields), u, fields.boundary_conditions(V),
+                             solver_options("iterative"), "auto")
+    try:
+        solver.target, solver.load_factor = 1e-10 * solver.load.norm(), 1.0
+        decisions = {}
+        for size in (0.05, 3.4e9):
+            x = solver.K.createVecRight()
+            x.set(size)
+            noise = solver.K.getDiagonal()
+            noise.abs()
+            noise.scale(size)
+            load = solver.load.copy()
+            load.abs()
+            noise.axpy(1.0, load)
+            noise.scale(0.5 * 10 * np.finfo(float).eps)
+            noise.copy(solver.b)
+            decisions[size] = (solver._within_roundoff(x, solver.K), solver.b.norm() / solver.load.norm())
+    finally:
+        solver.destroy()
+    assert decisions[0.05][0] and decisions[0.05][1] < ROUNDOFF_MEANINGFUL
+    assert not decisions[3.4e9][0] and decisions[3.4e9][1] > ROUNDOFF_MEANINGFUL
 
 
 def test_the_first_krylov_tolerance_is_chosen_again_on_every_solve():
