@@ -127,3 +127,19 @@ def test_the_laws_beyond_the_family_converge_with_the_defaults(tmp_path):
     assert all(r["reason"].startswith("CONVERGED") and not r["recoveries"] for r in rows)
     penalties_with_gap = [r for r in rows if r["m_n"] == "1" and r["gap"] != "0"]
     assert len(penalties_with_gap) == 8 and all(r["reason"] == "CONVERGED_ROUNDOFF" for r in penalties_with_gap)
+
+
+def test_the_replayed_systems_are_the_cold_solve_s(tmp_path):
+    """benchmarks/replay.py on small meshes, 2D and 3D: PETSc wrote one linear system per Newton step of the
+    cold frictional solve (so the replay solves what the solver solved), every replayed solve reaches its
+    tolerance in the true residual (the harness checks it), and 'refresh' sets up once a system, 'kept' and
+    'block' once in all."""
+    out = tmp_path / "replay.json"
+    proc = run([ROOT / "benchmarks" / "replay.py", "--members", "1-1-mu0.3", "3d-1-1-mu0.3", "--cells", "16",
+                "--cells3d", "4", "--repeat", "1", "--json-out", out], timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = json.loads(out.read_text())
+    assert [r["member"] for r in rows] == ["1-1-mu0.3", "3d-1-1-mu0.3"]
+    for r in rows:
+        assert r["systems"] == r["Newton"] > 1, r
+        assert (r["refresh set-ups"], r["kept set-ups"], r["block set-ups"]) == (r["systems"], 1, 1), r
