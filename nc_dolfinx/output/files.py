@@ -241,8 +241,7 @@ class ResultFolder:
         anything under the folder with the names this class gives its staging and temporary files."""
         if not self.path.is_dir():
             return
-        temporaries = [path for path in self.path.rglob(".*") if temporary_of(path)]
-        for path in [*self.path.glob(".partial-*"), *self.path.glob(".probe-*"), *temporaries]:
+        for path in [*self.path.glob(".partial-*"), *self.path.glob(".probe-*"), *self.path.rglob(".*.tmp*")]:
             shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink(missing_ok=True)
 
 
