@@ -343,7 +343,7 @@ def test_a_residual_within_a_runaway_s_round_off_ends_no_solve():
             load = solver.load.copy()
             load.abs()
             noise.axpy(1.0, load)
-            noise.scale(0.5 * 10 * np.finfo(float).eps)
+            noise.scale(0.5 * float(solver.options["roundoff_factor"]) * np.finfo(float).eps)
             noise.copy(solver.b)
             decisions[size] = (solver._within_roundoff(x, solver.K), solver.b.norm() / solver.load.norm())
     finally:
