@@ -12,6 +12,9 @@ for P1 triangles (2D, plane strain) and tetrahedra (3D) alike; "facet" is an edg
     η_K  = (Σ_i η_iK²)^{1/2},  η = (Σ_K η_K²)^{1/2}
     ζ_K  = (h_K² Σ_{K' ⊂ ω_K} ‖f − f_K'‖_K'² + Σ_{F ∈ F_K^N} h_F ‖g − g_F‖_F²)^{1/2},  ζ = (Σ_K ζ_K²)^{1/2}
 
+and beside them, not in η, the geometric term η_geo,K (:mod:`.geometric`: how far Γ_C ∪ Γ_N of the mesh
+lies from the body's true shape), which joins η_K² in the marking.
+
 h_K is the diameter of K (its longest edge), h_F the diameter of F (|E| in 2D, the longest edge of a face
 in 3D), ω_K the cells sharing a vertex with K.
 
@@ -68,13 +71,15 @@ from dolfinx import fem
 from .. import dolfinx_versions as versions
 from ..mesh.domain import cell_space
 from ..physics import elasticity, forms, friction
+from .geometric import geometric_form
 from .geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
 from .kink import law_residual_squared
 
 __all__ = ["NAMES", "CELL_DEGREE", "CONTACT_DEGREE", "CONTACT_DEGREE_SPLIT", "Estimate", "assemble_cellwise",
            "compile_form", "estimate", "patch_sum"]
 
-NAMES = ("eta_1", "eta_2", "eta_3", "eta_4", "eta", "zeta")
+NAMES = ("eta_1", "eta_2", "eta_3", "eta_4", "eta", "zeta")  # Definition 5's
+GEOMETRY = "eta_geometry"  # the geometric term beside them (:mod:`.geometric`)
 CELL_DEGREE = 8
 CONTACT_DEGREE = 24        # Γ_C on unsplit edges (2D): 13 Gauss points
 CONTACT_DEGREE_SPLIT = 16  # Γ_C on each piece of a split face (3D): 55 points
@@ -86,11 +91,12 @@ class Estimate:
 
     ``fields``: DG0 functions ``eta_1`` … ``eta_4``, ``eta`` and ``zeta`` holding η_iK, η_K and ζ_K
     on every cell; ``totals``: their global values η_i = (Σ_K η_iK²)^{1/2}, η and ζ (the same on every
-    rank); ``squares``: η_K² on the owned cells (what :func:`mark` reads); ``time``: seconds spent."""
+    rank), and ``geometry_sag``, the largest δ_F of :mod:`.geometric`; ``squares``: η_K² + η_geo,K² on the
+    owned cells (what :func:`mark` reads); ``time``: seconds spent."""
     fields: dict
     totals: dict
     time: float = 0.0
-    squares: np.ndarray = field(default=None, repr=False)  # η_K² on the owned cells (for marking)
+    squares: np.ndarray = field(default=None, repr=False)  # η_K² + η_geo,K² on the owned cells (for marking)
 
     @property
     def comm(self):
@@ -163,12 +169,23 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     eta_sq = eta_1_sq + eta_2_sq
     eta_sq += eta_3_sq
     eta_sq += eta_4_sq
+    geometry_sq, sag = _geometric_term(u, fields)
     squares = {"eta_1": eta_1_sq, "eta_2": eta_2_sq, "eta_3": eta_3_sq, "eta_4": eta_4_sq, "eta": eta_sq,
-               "zeta": zeta_sq}
-    fields_out = {name: owned_values_with_ghosts(Q, squares[name], name, np.sqrt) for name in NAMES}
-    sums = comm.allreduce(np.array([np.sum(squares[name]) for name in NAMES]), MPI.SUM)
-    totals = {name: float(np.sqrt(total)) for name, total in zip(NAMES, sums)}
-    return Estimate(fields_out, totals, time.perf_counter() - start, eta_sq)
+               "zeta": zeta_sq, GEOMETRY: geometry_sq}
+    fields_out = {name: owned_values_with_ghosts(Q, squares[name], name, np.sqrt) for name in (*NAMES, GEOMETRY)}
+    sums = comm.allreduce(np.array([np.sum(squares[name]) for name in (*NAMES, GEOMETRY)]), MPI.SUM)
+    totals = {name: float(np.sqrt(total)) for name, total in zip((*NAMES, GEOMETRY), sums)}
+    totals["geometry_sag"] = sag
+    marking = eta_sq if sag == 0.0 else eta_sq + geometry_sq  # the geometry is refined where it is coarse too
+    return Estimate(fields_out, totals, time.perf_counter() - start, marking)
+
+
+def _geometric_term(u, fields):
+    """η_geo,K² on the owned cells and the largest sag δ_F (:mod:`.geometric`); zeros on flat boundaries."""
+    form, Q, sag = geometric_form(u, fields)
+    if form is None:
+        return np.zeros(Q.dofmap.index_map.size_local), sag
+    return assemble_cellwise(form, Q)[:, 0].copy(), sag
 
 
 def _against(vector, wv, first):

@@ -34,7 +34,9 @@ class Domain:
 
     ``mesh``: the DOLFINx mesh (P1 triangles or tetrahedra, ``GhostMode.shared_facet``);
     ``facet_tags``: the owned exterior facets tagged with their group id (``UNTAGGED`` = 0 in none);
-    ``region``: a DG0 function of the cells' region ids; ``facet_groups`` / ``cell_groups``: name → id.
+    ``region``: a DG0 function of the cells' region ids; ``facet_groups`` / ``cell_groups``: name → id;
+    ``shapes``: the surface each boundary group lies on (:mod:`nc_dolfinx.mesh.shape`; set from the problem
+    when it is bound, kept by refinement, which places new boundary vertices on it).
     Made by :func:`rectangle`, :func:`box`, :func:`from_gmsh`, :func:`from_gmsh_model`,
     :func:`from_dolfinx` or :func:`build_domain`; :func:`refine` returns the next one.
     """
@@ -43,6 +45,7 @@ class Domain:
     region: fem.Function
     facet_groups: dict  # name -> id
     cell_groups: dict  # name -> id
+    shapes: object = None  # the true shape of each boundary group (:class:`~nc_dolfinx.mesh.shape.Shapes`)
 
     @property
     def comm(self):
@@ -225,6 +228,15 @@ def global_bounds(comm, x):
     comm.Allreduce(x.min(axis=0) if len(x) else np.full(x.shape[1], np.inf), low, MPI.MIN)
     comm.Allreduce(x.max(axis=0) if len(x) else np.full(x.shape[1], -np.inf), high, MPI.MAX)
     return low, high
+
+
+def dof_of_node(space):
+    """The P1 dof (block index) at each geometry node of the space's mesh (a cell lists its dofs and nodes
+    in the same order: both follow the cell's vertices)."""
+    nodes = versions.geometry_nodes(space.mesh)
+    at_node = np.empty(space.mesh.geometry.x.shape[0], dtype=np.int64)
+    at_node[nodes.ravel()] = versions.cell_dofs(space.dofmap)[:len(nodes)].ravel()
+    return at_node
 
 
 def region_function(msh, values_of_owned_cells):

@@ -28,10 +28,12 @@ from dolfinx import fem, mesh as dmesh
 
 from .. import dolfinx_versions as versions
 from .balance import IMBALANCE_LIMIT, imbalance, rebalance
-from .domain import (UNTAGGED, Domain, cell_facet_groups, global_bounds, match_simplices, region_function,
-                     tag_from_cell_facets)
+from . import shape
+from .domain import (UNTAGGED, Domain, cell_facet_groups, dof_of_node, global_bounds, match_simplices,
+                     region_function, tag_from_cell_facets)
 
 _MOVES = weakref.WeakKeyDictionary()  # rebalanced child mesh -> the Move that made it (for transfer)
+_NESTED = weakref.WeakKeyDictionary()  # snapped child mesh -> its nodes before the snap (for transfer)
 
 
 def refine(domain, cells=None, balance=True):
@@ -53,8 +55,12 @@ def refine(domain, cells=None, balance=True):
         child, move = rebalance(child)
         inherited = move.cell_values(child.comm, inherited)
         _MOVES[child] = move
-    return Domain(child, tag_from_cell_facets(child, inherited[:, 1:]), region_function(child, inherited[:, 0]),
-                  domain.facet_groups, domain.cell_groups)
+    refined = Domain(child, tag_from_cell_facets(child, inherited[:, 1:]), region_function(child, inherited[:, 0]),
+                     domain.facet_groups, domain.cell_groups, domain.shapes)
+    nested = shape.snap(refined)  # new boundary vertices onto the true shape of their groups
+    if nested is not None and not moving:  # (a Move computed its values before the snap already)
+        _NESTED[child] = nested
+    return refined
 
 
 def _inherited(domain, parents):
@@ -131,7 +137,7 @@ def _plaza(domain, edges):
     gdim = msh.geometry.dim
     exact = msh.geometry.x.copy()
     position = fem.Function(versions.p1_space(msh, (gdim,)))
-    position.x.array.reshape(-1, gdim)[_dof_of_node(position.function_space)] = exact[:, :gdim]
+    position.x.array.reshape(-1, gdim)[dof_of_node(position.function_space)] = exact[:, :gdim]
     msh.geometry.x[:, :gdim] += _tie_breaker(exact[:, :gdim], *global_bounds(msh.comm, exact[:, :gdim]))
     try:
         child, parents = versions.refine_keeping_ranks(msh, edges, unique_ghosts=False)
@@ -139,7 +145,7 @@ def _plaza(domain, edges):
     finally:
         msh.geometry.x[:] = exact
     moved_back = child_position.x.array.reshape(-1, gdim)
-    child.geometry.x[:, :gdim] = moved_back[_dof_of_node(child_position.function_space)]
+    child.geometry.x[:, :gdim] = moved_back[dof_of_node(child_position.function_space)]
     return child, parents
 
 
@@ -155,15 +161,6 @@ def _tie_breaker(x, low, high):
     phase = 2 * np.pi * (x - low) / extent
     dim = x.shape[1]
     return TIE_BREAKING_MOVE * extent * np.sin(phase @ _FREQUENCIES[:dim, :dim].T + np.arange(1, dim + 1))
-
-
-def _dof_of_node(space):
-    """The P1 dof at each geometry node of the space's mesh (a cell lists its dofs and nodes in the same
-    order: both follow the cell's vertices)."""
-    nodes = versions.geometry_nodes(space.mesh)
-    dof_of_node = np.empty(space.mesh.geometry.x.shape[0], dtype=np.int64)
-    dof_of_node[nodes.ravel()] = versions.cell_dofs(space.dofmap)[:len(nodes)].ravel()
-    return dof_of_node
 
 
 def evaluate(function, points):
@@ -198,8 +195,7 @@ def transfer(function, space):
     in_owned_cell = np.zeros(space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts, bool)
     in_owned_cell[versions.cell_dofs(space.dofmap)[:n_cells]] = True
     dofs = np.flatnonzero(in_owned_cell)
-    out.x.array.reshape(-1, bs)[dofs] = _values_at_child_vertices(function,
-                                                                  space.tabulate_dof_coordinates()[dofs])
+    out.x.array.reshape(-1, bs)[dofs] = _values_at_child_vertices(function, _nested_dof_coordinates(space)[dofs])
     count.x.array.reshape(-1, bs)[dofs] = 1.0
     for fn in (out, count):
         fn.x.scatter_reverse(versions.SCATTER_ADD)
@@ -211,13 +207,25 @@ def transfer(function, space):
     return out
 
 
+def _nested_dof_coordinates(space):
+    """Where each P1 dof of a child mesh sits in its parent's cells: its coordinates, or for a mesh whose
+    boundary vertices were moved onto their surfaces (:func:`~nc_dolfinx.mesh.shape.snap`) those before
+    the move, i.e. a parent vertex or edge midpoint — values carry over as on the reference cell."""
+    nested = _NESTED.get(space.mesh)
+    if nested is None:
+        return space.tabulate_dof_coordinates()
+    x = np.empty_like(nested)
+    x[dof_of_node(space)] = nested
+    return x
+
+
 def _moved(function, space, move):
     """:func:`transfer` to a rebalanced child: the values at the nodes of the cells this rank owned before
     the move (exact, as above), then every local node's value fetched from its old owner. A P1 dof is a
     node of the mesh: the cells' dofs and nodes are listed in the same order."""
     out = fem.Function(space, name=function.name)
     values = move.node_values(space.mesh.comm, _values_at_child_vertices(function, move.points))
-    out.x.array.reshape(-1, space.dofmap.index_map_bs)[_dof_of_node(space)] = values
+    out.x.array.reshape(-1, space.dofmap.index_map_bs)[dof_of_node(space)] = values
     return out
 
 

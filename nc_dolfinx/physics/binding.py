@@ -18,7 +18,7 @@ from dolfinx import fem
 
 from .. import dolfinx_versions as versions
 from ..errors import InputError, brief_text
-from ..mesh import builtin, gmsh_io
+from ..mesh import builtin, gmsh_io, shape
 from ..mesh.domain import UNTAGGED, Domain, global_bounds
 from ..problem.expressions import to_ufl, to_ufl_vector, values_at
 from ..problem.problem import check_exponent, check_reference, check_vector_sizes
@@ -174,6 +174,9 @@ def bind(problem, domain):
             "traction-free, i.e. Γ_N with g = 0 (list {} in mesh.neumann to say so; a cut of a symmetric "
             "model belongs in mesh.symmetry)".format('them' if len(unassigned) > 1 else 'it'))
     _check_finite_on_mesh(problem, domain, ids, listed_neumann)
+    shape.resolve(domain, problem)  # once per mesh family: refinement keeps it
+    fields.warnings += [text for role in ("contact", "neumann") for i in ids[role]
+                        if (text := shape.faceted_warning(domain, i, role))]
     if dim == 3 and contact["m_n"] > 2:
         fields.notes.append(f"m_n = {contact['m_n']:g} > 2 in 3D: σ_n(u) ∈ L²(Γ_C), used by the paper's "
                             "proofs, is guaranteed only for m_n <= 2 (H^1/2(Γ_C) ⊂ L⁴); the law is well "

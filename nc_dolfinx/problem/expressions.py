@@ -160,6 +160,21 @@ def values_at(text, points, parameters=None):
     return np.broadcast_to(value, (len(points),))
 
 
+def to_sympy(text, coordinates, parameters=None):
+    """A sympy expression of the problem-file expression ``text`` (``coordinates``: name → sympy symbol),
+    by the same checked walker as :func:`to_ufl`: what sympy then derives (an implicit surface's gradient,
+    :class:`~nc_dolfinx.mesh.surfaces.Implicit`) is derived from what the file wrote, never from ``eval``."""
+    import sympy
+    functions = {"sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "exp": sympy.exp, "log": sympy.log,
+                 "sqrt": sympy.sqrt, "abs": sympy.Abs, "max": sympy.Max, "min": sympy.Min,
+                 "pos": lambda a: sympy.Max(a, 0)}
+    names = {"pi": sympy.pi, **{k: sympy.Float(v) for k, v in (parameters or {}).items()}, **coordinates}
+    try:
+        return sympy.sympify(_evaluate(_parse(text).body, names, functions, text))
+    except (TypeError, ValueError, ZeroDivisionError, OverflowError) as err:
+        raise InputError(f"cannot evaluate expression '{brief_text(text)}': {err}") from None
+
+
 def check(text, parameters=None, coordinates=COORDINATES):
     """Validate an expression without a mesh: syntax, names and, with coordinates set to 0.5, arithmetic
     that fails everywhere (``1/0``). Raises InputError naming the problem."""

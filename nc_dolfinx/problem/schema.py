@@ -102,6 +102,24 @@ KEYS = [
         "or in a group in no role, is Γ_N with g = 0 (a group in no role is named in a warning)", []),
     Key("mesh.symmetry", "groups", "boundary groups on a symmetry plane normal to a coordinate axis: "
         "u·ν = 0, tangential traction free", []),
+    Key("mesh.shapes.*.circle.centre", "point", "the true shape of a boundary group (2D): the circle it lies "
+        "on, its centre `[x, y]`; new boundary vertices of refined meshes are placed on it", REQUIRED),
+    Key("mesh.shapes.*.circle.radius", "number", "the circle's radius", REQUIRED, check=_positive),
+    Key("mesh.shapes.*.sphere.centre", "point", "the true shape of a boundary group (3D): the sphere it lies "
+        "on, its centre `[x, y, z]`", REQUIRED),
+    Key("mesh.shapes.*.sphere.radius", "number", "the sphere's radius", REQUIRED, check=_positive),
+    Key("mesh.shapes.*.cylinder.centre", "point", "the true shape of a boundary group (3D): a circular "
+        "cylinder, a point of its axis", REQUIRED),
+    Key("mesh.shapes.*.cylinder.axis", "point", "the cylinder axis' direction", REQUIRED),
+    Key("mesh.shapes.*.cylinder.radius", "number", "the cylinder's radius", REQUIRED, check=_positive),
+    Key("mesh.shapes.*.plane.point", "point", "the true shape of a boundary group: a plane, a point of it "
+        "(a group whose level-0 facets are coplanar is found flat without it)", REQUIRED),
+    Key("mesh.shapes.*.plane.normal", "point", "the plane's normal", REQUIRED),
+    Key("mesh.shapes.*.implicit", "expression", "the true shape of a boundary group: the surface φ = 0 of an "
+        "expression φ of the coordinates and parameters, e.g. `\"x**2/4 + (y - 1)**2 - 1\"` (an ellipse); "
+        "its gradient is derived (sympy)"),
+    Key("mesh.shape_tolerance", "number", "how far a level-0 vertex may lie from its group's shape, relative "
+        "to the body's size", 1e-6, check=_positive),
     # [material]
     Key("material.E", "number", "Young's modulus E > 0", REQUIRED, check=_positive),
     Key("material.nu", "number", "Poisson's ratio ν in (−1, 0.5)", REQUIRED, check=_poisson),
@@ -347,6 +365,13 @@ def _option(value, where, _):
     return value
 
 
+def _point(value, where, parameters):
+    """A point or a direction: 2 (2D) or 3 (3D) numbers (or expressions of the parameters)."""
+    if not isinstance(value, list) or len(value) not in (2, 3):
+        raise InputError(f"{where} must be a list of 2 (2D) or 3 (3D) numbers, got {brief(value)}")
+    return [_number(v, f"{where}[{i}]", parameters) for i, v in enumerate(value)]
+
+
 def _displacement_vector(value, where, parameters):
     """A prescribed displacement: per coordinate an expression, or "free" (that component is not held)."""
     if not isinstance(value, list) or len(value) not in (2, 3):
@@ -370,7 +395,7 @@ def _free_or_expression(value, where, parameters):
 
 _KINDS = {"number": _number, "expression": _expression, "vector": _vector, "groups": _groups,
           "integer": _integer, "boolean": _boolean, "string": _string, "corners": _corners,
-          "cells": _cells, "option": _option, "prescribed": _displacement_vector}
+          "cells": _cells, "option": _option, "prescribed": _displacement_vector, "point": _point}
 
 
 def convert(path, value, where=None, parameters=None):

@@ -1,0 +1,376 @@
+"""The true shape of the boundary, beside refinement: which surface each boundary group lies on, and the
+new vertices of a refined mesh placed on it.
+
+Refinement bisects edges: a new vertex lies at the midpoint of its parent edge, so without more the body's
+boundary stays the level-0 polygon (polyhedron) however far the adaptive loop goes, and on a curved Γ_C
+(a ball, a roller) the loop converges, η falling all the way, to the contact of a *faceted* body. Here:
+
+- :func:`resolve` gives each boundary group of a level-0 :class:`~nc_dolfinx.mesh.domain.Domain` its
+  :class:`Shapes` entry: the surface of ``[mesh.shapes]`` (:mod:`.surfaces`: plane, circle, sphere,
+  cylinder, an implicit φ(x) = 0) or of the CAD (:mod:`.cad`); else a plane where the group's level-0
+  facets are coplanar (found, not asked for); else nothing, and the group is *faceted*: its level-0 sag
+  (how far its facets depart from the smooth surface through their vertices, :func:`facet_sag`) is kept
+  for the warning and for the estimator's geometric term. Level-0 vertices must lie on their given
+  surface (``mesh.shape_tolerance`` × the body's size), else an error names the group and the distance.
+- :func:`snap`, after every refinement, moves each boundary vertex onto the intersection of the surfaces of
+  all the groups whose facets meet there (a vertex on the rim of a spherical cap and a symmetry plane stays
+  in the plane) — unless one of them is faceted, then it stays where refinement put it. Each rank moves its
+  own (owned and ghost) vertices by the same function of the coordinates and of the groups around the vertex
+  (gathered across ranks by one reverse scatter): nothing of global size is gathered, and the result does
+  not depend on the rank count. If a moved cell inverts or loses more than half its quality, the boundary's
+  move is extended into the interior harmonically (one Laplace solve; measured rarely needed, since the move
+  is the sagitta h²/8R); a cell that still inverts is an error.
+
+Transfer between levels is untouched: a child vertex keeps its place *in the parent's cells* (a midpoint
+of a parent edge), so the values carried to it (the displacement, the friction law's memory) are those at
+the midpoint — the reference-cell transfer of deal.II's manifolds; :func:`snap` returns the coordinates
+before the move for :func:`nc_dolfinx.mesh.refinement.transfer`.
+"""
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from dolfinx import fem
+
+from .. import dolfinx_versions as versions
+from ..errors import InputError, brief_text
+from .domain import UNTAGGED, cells_of_facets, dof_of_node, global_bounds
+from .surfaces import Cylinder, Implicit, Plane, Sphere, project
+
+log = logging.getLogger("nc_dolfinx")
+
+KINDS = ("plane", "circle", "sphere", "cylinder", "implicit")
+FLAT_TOLERANCE = 1e-10    # × the body's size: a group whose level-0 facets are this close to one plane is flat
+ON_SURFACE = 1e-12        # × the body's size: a vertex this close to its surfaces is not moved
+CORNER_ANGLE = np.radians(30)  # a normal turning more than this at a vertex is an edge of the body, not a curve
+VISIBLE_ANGLE = np.radians(0.5)  # a faceted group whose normals turn more than this gets a warning
+QUALITY_KEPT = 0.5        # a snapped cell keeping less than this of its quality moves the interior too
+QUALITY_FLOOR = 0.05      # ... and after that, less than this is an error
+
+
+@dataclass
+class Shapes:
+    """The shape of each boundary group of a mesh: ``surfaces`` (group id → Surface: given, or the plane
+    of a flat group), ``given`` (the ids whose surface the problem or the CAD gave), ``sag`` (group id → the
+    largest sag of its level-0 facets, for the faceted groups: no surface), ``angle`` (their largest turn
+    of the normal between neighbouring facets, radians), ``scale`` (the body's size)."""
+    surfaces: dict
+    given: frozenset
+    sag: dict = field(default_factory=dict)
+    angle: dict = field(default_factory=dict)
+    scale: float = 1.0
+
+    @property
+    def curved(self):
+        """Whether any group has a given surface that is not a plane (else refinement moves nothing)."""
+        return any(not isinstance(self.surfaces[i], Plane) for i in self.given)
+
+
+# --- level 0 ---------------------------------------------------------------------------------------
+
+def resolve(domain, problem=None, extra=None):
+    """The :class:`Shapes` of ``domain``'s boundary groups from ``problem``'s ``[mesh.shapes]`` (and
+    ``extra``: group id → Surface, e.g. a CAD's), set as ``domain.shapes`` and returned; checks that the
+    level-0 vertices lie on their surfaces. A domain that has its shapes keeps them."""
+    if domain.shapes is not None:
+        return domain.shapes
+    msh = domain.mesh
+    gdim = msh.geometry.dim
+    low, high = global_bounds(domain.comm, msh.geometry.x[:, :gdim])
+    scale = float(np.max(high - low)) if np.all(np.isfinite(low)) else 1.0
+    given = dict(extra or {})
+    if problem is not None:
+        spec = problem.values["mesh"].get("shapes") or {}
+        given.update({_group_id(domain, name): surface_of(spec[name], gdim, problem.parameters,
+                                                           f"mesh.shapes.{name}") for name in spec})
+        tolerance = problem.values["mesh"]["shape_tolerance"] * scale
+    else:
+        tolerance = DEFAULT_TOLERANCE * scale
+    facets = _facets_by_group(domain)
+    for group_id, surface in given.items():
+        _check_on_surface(domain, group_id, surface, facets.get(group_id, np.zeros(0, np.int32)), tolerance)
+    shapes = Shapes(dict(given), frozenset(given), scale=scale)
+    for group_id in _all_groups(domain):
+        if group_id in given:
+            continue
+        plane = _plane_of(domain, facets.get(group_id, np.zeros(0, np.int32)), scale)
+        if plane is not None:
+            shapes.surfaces[group_id] = plane
+        else:
+            shapes.sag[group_id], shapes.angle[group_id] = _level0_sag(domain, facets.get(group_id, np.zeros(0, np.int32)))
+    domain.shapes = shapes
+    return shapes
+
+
+DEFAULT_TOLERANCE = 1e-6
+
+
+def surface_of(spec, gdim, parameters, where):
+    """The Surface of one group's ``[mesh.shapes.GROUP]`` table (exactly one kind in it)."""
+    kinds = [kind for kind in KINDS if spec.get(kind) is not None]
+    if len(kinds) != 1:
+        raise InputError(f"{where} must give exactly one of {', '.join(KINDS)}, got "
+                         f"{', '.join(kinds) if kinds else 'none'}")
+    kind, value = kinds[0], spec[kinds[0]]
+    wanted = {"circle": 2, "sphere": 3, "cylinder": 3}.get(kind)
+    if wanted is not None and wanted != gdim:
+        other = {"circle": "sphere", "sphere": "circle", "cylinder": "circle"}[kind]
+        raise InputError(f"{where}.{kind}: the mesh is {gdim}D, a {kind} is a {wanted}D shape (use {other})")
+    for key in ("centre", "point", "normal", "axis"):
+        if key in value and len(value[key]) != gdim:
+            raise InputError(f"{where}.{kind}.{key} has {len(value[key])} components but the mesh is {gdim}D")
+    if kind == "plane":
+        return Plane(value["point"], value["normal"])
+    if kind in ("circle", "sphere"):
+        return Sphere(value["centre"], value["radius"])
+    if kind == "cylinder":
+        return Cylinder(value["centre"], value["axis"], value["radius"])
+    try:
+        return Implicit(value, parameters, gdim)
+    except InputError as err:
+        raise InputError(f"{where}.implicit: {err}") from None
+
+
+def _group_id(domain, name):
+    if name in domain.facet_groups:
+        return domain.facet_groups[name]
+    if name.isdigit() and int(name) in domain.facet_groups.values():
+        return int(name)
+    raise InputError(f"mesh.shapes.{brief_text(name)}: no boundary group of that name in the mesh (groups: "
+                     f"{', '.join(sorted(domain.facet_groups))})")
+
+
+def _all_groups(domain):
+    return sorted({UNTAGGED, *domain.facet_groups.values()})
+
+
+def _facets_by_group(domain):
+    tags = domain.facet_tags
+    return {int(g): tags.indices[tags.values == g] for g in np.unique(tags.values)}
+
+
+def _facet_points(msh, facets):
+    """The vertices of local facets, (n, tdim, gdim)."""
+    nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
+    return msh.geometry.x[nodes.reshape(-1), :msh.geometry.dim].reshape(len(facets), msh.topology.dim,
+                                                                        msh.geometry.dim)
+
+
+def _check_on_surface(domain, group_id, surface, facets, tolerance):
+    points = _facet_points(domain.mesh, facets).reshape(-1, domain.mesh.geometry.dim)
+    distance = surface.distance(points) if len(points) else np.zeros(0)
+    worst = float(distance.max()) if len(distance) else 0.0
+    worst_everywhere = domain.comm.allreduce(worst, MPI.MAX)
+    if not worst_everywhere <= tolerance:  # (NaN too)
+        name = _name(domain, group_id)
+        raise InputError(f"mesh.shapes.{name}: a level-0 vertex of group '{name}' lies {worst_everywhere:.3g} "
+                         f"from its {surface.name} (tolerance {tolerance:.3g}, mesh.shape_tolerance × the body's "
+                         "size): the shape does not describe this boundary")
+
+
+def _name(domain, group_id):
+    names = {i: name for name, i in domain.facet_groups.items()}
+    return names.get(group_id, "(untagged)" if group_id == UNTAGGED else str(group_id))
+
+
+def facet_normals(msh, facets):
+    """Unit normals of local boundary facets, pointing out of their cell."""
+    points = _facet_points(msh, facets)
+    gdim = msh.geometry.dim
+    if gdim == 2:
+        t = points[:, 1] - points[:, 0]
+        n = np.column_stack([t[:, 1], -t[:, 0]])
+    else:
+        n = np.cross(points[:, 1] - points[:, 0], points[:, 2] - points[:, 0])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    _, cells, _ = cells_of_facets(msh, facets)
+    cell_nodes = versions.geometry_nodes(msh)[cells]
+    inside = msh.geometry.x[cell_nodes.reshape(-1), :gdim].reshape(len(cells), -1, gdim).mean(axis=1)
+    outward = np.sign(np.sum((points.mean(axis=1) - inside) * n, axis=1))
+    return n * outward[:, None]
+
+
+def _plane_of(domain, facets, scale):
+    """The plane of a group whose level-0 facets all lie in one plane (the same on every rank), else None."""
+    msh, comm = domain.mesh, domain.comm
+    local = None
+    if len(facets):
+        local = (_facet_points(msh, facets[:1])[0, 0], facet_normals(msh, facets[:1])[0])
+    candidates = [c for c in comm.allgather(local) if c is not None]
+    if not candidates:
+        return None
+    plane = Plane(*candidates[0])
+    points = _facet_points(msh, facets).reshape(-1, msh.geometry.dim)
+    flat = bool(np.all(np.abs(plane.phi(points)) <= FLAT_TOLERANCE * scale)) if len(points) else True
+    return plane if comm.allreduce(flat, MPI.LAND) else None
+
+
+def _level0_sag(domain, facets):
+    """(sag, angle) of a faceted group: each facet's normal against the mean normal at its vertices
+    (the group's facets around each vertex, gathered across ranks) turns by an angle α; on a circle of
+    radius R with chords h, α = h/2R and the chord's sag is h²/8R = h α/4. Turns beyond CORNER_ANGLE are
+    edges of the body and are left out. The largest of each, the same on every rank."""
+    msh = domain.mesh
+    gdim = msh.geometry.dim
+    V = versions.p1_space(msh, (gdim,))
+    at_node = dof_of_node(V)
+    summed = fem.Function(V)
+    normals = facet_normals(msh, facets) if len(facets) else np.zeros((0, gdim))
+    nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
+    values = summed.x.array.reshape(-1, gdim)
+    for j in range(nodes.shape[1]):
+        np.add.at(values, at_node[nodes[:, j]], normals)
+    summed.x.scatter_reverse(versions.SCATTER_ADD)
+    summed.x.scatter_forward()
+    mean = summed.x.array.reshape(-1, gdim)[at_node[nodes]]  # (n, tdim, gdim)
+    mean /= np.maximum(np.linalg.norm(mean, axis=2), 1e-300)[..., None]
+    turn = np.arccos(np.clip(np.einsum("ng,nkg->nk", normals, mean), -1.0, 1.0)).max(axis=1) if len(facets) \
+        else np.zeros(0)
+    turn[turn > CORNER_ANGLE] = 0.0
+    sizes = versions.diameters(msh, msh.topology.dim - 1, facets) if len(facets) else np.zeros(0)
+    sag = float(np.max(sizes * turn / 4)) if len(facets) else 0.0
+    angle = float(2 * turn.max()) if len(facets) else 0.0
+    return domain.comm.allreduce(sag, MPI.MAX), domain.comm.allreduce(angle, MPI.MAX)
+
+
+def faceted_warning(domain, group_id, role):
+    """The warning for a faceted group in a role whose facets visibly turn (None if they do not)."""
+    shapes = domain.shapes
+    if shapes is None or group_id not in shapes.sag or shapes.angle[group_id] <= VISIBLE_ANGLE:
+        return None
+    name = _name(domain, group_id)
+    return (f"boundary group '{name}' ({role}) is given no shape and its level-0 facets are not flat: their normals "
+            f"turn by up to {np.degrees(shapes.angle[group_id]):.2g}° between neighbours, a sag of up to "
+            f"{shapes.sag[group_id]:.3g}; refinement keeps these facets, so the run converges to the faceted body, "
+            f"not to a smooth one — give the true shape in [mesh.shapes.{name}] (plane, circle, sphere, cylinder "
+            "or implicit) or the CAD file (mesh.cad); the column geometry_sag reports it")
+
+
+# --- after a refinement ----------------------------------------------------------------------------
+
+def snap(domain):
+    """Move the boundary vertices of a refined ``domain`` onto their groups' surfaces (module docstring).
+    Returns the coordinates before the move (for the transfer) if any vertex moved on any rank, else None.
+    Collective."""
+    shapes = domain.shapes
+    if shapes is None or not shapes.curved:
+        return None
+    msh = domain.mesh
+    gdim = msh.geometry.dim
+    groups = _all_groups(domain)
+    around = _groups_around_nodes(domain, groups)  # (n_nodes, n_groups) bool
+    before = msh.geometry.x.copy()
+    moved_any = False
+    for pattern in np.unique(around, axis=0):
+        ids = [g for g, present in zip(groups, pattern) if present]
+        if not ids or any(g not in shapes.surfaces for g in ids):  # interior, or by a faceted group
+            continue
+        surfaces = list({id(shapes.surfaces[g]): shapes.surfaces[g] for g in ids}.values())
+        if all(isinstance(s, Plane) for s in surfaces):  # midpoints of flat facets are on them already
+            continue
+        nodes = np.flatnonzero(np.all(around == pattern, axis=1))
+        x = before[nodes, :gdim]
+        off = np.max([np.abs(s.phi(x)) / np.maximum(np.linalg.norm(s.gradient(x), axis=1), 1e-300)
+                      for s in surfaces], axis=0) > ON_SURFACE * shapes.scale
+        if np.any(off):
+            msh.geometry.x[nodes[off], :gdim] = project(x[off], surfaces, shapes.scale)
+            moved_any = True
+    if not domain.comm.allreduce(moved_any, MPI.LOR):
+        return None
+    _keep_cells_valid(domain, before)
+    return before
+
+
+def _groups_around_nodes(domain, groups):
+    """For every local geometry node, whether a boundary facet of each group touches it (any rank's)."""
+    msh = domain.mesh
+    V = versions.p1_space(msh, (len(groups),))
+    at_node = dof_of_node(V)
+    count = fem.Function(V)
+    values = count.x.array.reshape(-1, len(groups))
+    tags = domain.facet_tags
+    nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, tags.indices)
+    column = np.searchsorted(groups, tags.values)
+    for j in range(nodes.shape[1]):
+        np.add.at(values, (at_node[nodes[:, j]], column), 1.0)
+    count.x.scatter_reverse(versions.SCATTER_ADD)
+    count.x.scatter_forward()
+    return count.x.array.reshape(-1, len(groups))[at_node] > 0
+
+
+def cell_quality(msh, x=None):
+    """Signed quality of every local cell: its volume over that of the regular simplex with the same
+    root-mean-square edge (1 for a regular simplex, ≤ 0 for an inverted or flat one)."""
+    x = msh.geometry.x if x is None else x
+    tdim = msh.topology.dim
+    points = x[versions.geometry_nodes(msh)][:, :, :tdim]  # (n, tdim + 1, tdim): the cells' vertices
+    edges = points[:, 1:] - points[:, :1]
+    volume = np.linalg.det(edges)
+    pairs = [(i, j) for i in range(tdim + 1) for j in range(i + 1, tdim + 1)]
+    rms = np.sqrt(np.mean([np.sum((points[:, i] - points[:, j]) ** 2, axis=1) for i, j in pairs], axis=0))
+    regular = {2: np.sqrt(3) / 2, 3: 1 / np.sqrt(2)}[tdim]  # det of the regular simplex of unit edge
+    return volume / (regular * rms ** tdim)
+
+
+def _keep_cells_valid(domain, before):
+    """After the boundary moved: if a cell inverted or lost more than half its quality (cells keep their
+    orientation: the sign of det J is compared), extend the boundary's move harmonically into the interior;
+    a cell still inverted or below QUALITY_FLOOR of its quality is an error, on every rank."""
+    msh = domain.mesh
+    q_before, q_after = cell_quality(msh, before), cell_quality(msh)
+    ratio = q_after / np.where(q_before != 0, q_before, 1.0)
+    if not domain.comm.allreduce(bool(np.any(ratio < QUALITY_KEPT)), MPI.LOR):
+        return
+    _extend_harmonically(domain, before)
+    ratio = cell_quality(msh) / np.where(q_before != 0, q_before, 1.0)
+    worst = domain.comm.allreduce(float(ratio.min()) if len(ratio) else 1.0, MPI.MIN)
+    if worst < QUALITY_FLOOR:
+        names = ", ".join(f"'{_name(domain, g)}'" for g in sorted(domain.shapes.given))
+        raise InputError(f"refinement onto the shape of {names}: a cell keeps {worst:.2g} of its quality even "
+                         "with the interior moved along (inverted if ≤ 0): the level-0 mesh is too coarse for the "
+                         "surface's curvature there; mesh it finer")
+
+
+def _extend_harmonically(domain, before):
+    """Move the interior nodes by the harmonic extension of the boundary nodes' move (−Δd = 0, d given on
+    the whole boundary): one Laplace solve, CG + BoomerAMG to 1e-12."""
+    msh = domain.mesh
+    gdim = msh.geometry.dim
+    V = versions.p1_space(msh, (gdim,))
+    at_node = dof_of_node(V)
+    move = fem.Function(V)
+    move.x.array.reshape(-1, gdim)[at_node] = (msh.geometry.x - before)[:, :gdim]
+    msh.geometry.x[:] = before  # the Laplace problem on the mesh before the move (valid cells)
+    boundary = fem.locate_dofs_topological(V, msh.topology.dim - 1, domain.facet_tags.indices)
+    d, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    zero = fem.Constant(msh, np.zeros(gdim))
+    extension = versions.solve_linear_problem(
+        ufl.inner(ufl.grad(d), ufl.grad(v)) * ufl.dx, ufl.inner(zero, v) * ufl.dx, [fem.dirichletbc(move, boundary)],
+        {"ksp_type": "cg", "pc_type": "hypre", "ksp_rtol": 1e-12, "ksp_atol": 1e-300})
+    msh.geometry.x[:, :gdim] += extension.x.array.reshape(-1, gdim)[at_node]
+
+
+# --- the estimator's geometric term -----------------------------------------------------------------
+
+def facet_sag(domain, facets, groups):
+    """δ_F for local boundary ``facets`` of ``groups``: the distance of the facet from its group's surface,
+    taken at its centroid and edge midpoints (where a chord with its vertices on the surface departs most);
+    0 on a plane; the level-0 sag for a faceted group (refinement does not reduce it)."""
+    shapes, msh = domain.shapes, domain.mesh
+    out = np.zeros(len(facets))
+    if shapes is None:
+        return out
+    points = _facet_points(msh, facets)
+    k = points.shape[1]
+    probes = [points.mean(axis=1)] + [0.5 * (points[:, i] + points[:, j]) for i in range(k) for j in range(i + 1, k)]
+    for group in np.unique(groups):
+        here = groups == group
+        surface = shapes.surfaces.get(int(group))
+        if surface is None:
+            out[here] = shapes.sag.get(int(group), 0.0)
+        elif not isinstance(surface, Plane):
+            out[here] = np.max([surface.distance(p[here]) for p in probes], axis=0)
+    return out
