@@ -20,33 +20,49 @@ proved on polygonal domains only and no theorem here bounds the error on Ω by �
 (column ``eta_geometry``, DG0 field ``eta_geometry``) beside η, not inside it, and it joins η_K² in the
 marking, so that refinement goes where the geometry is coarse too; ``geometry_sag`` is the largest δ_F.
 """
+import dolfinx
 import numpy as np
 import ufl
 from mpi4py import MPI
 
-from dolfinx import fem
-
+from .. import dolfinx_versions as versions
 from ..mesh import shape
 from ..mesh.domain import cell_space, cells_of_facets
+from .geometry import owned_values_with_ghosts
 
 
-def geometric_form(u, fields):
-    """(the form of η_geo,K² against the DG0 test function of ``Q``, ``Q``; the largest δ_F over Γ_C ∪ Γ_N,
-    the same on every rank); the form is None where every facet there is flat (nothing to assemble)."""
+def geometric_term(u, fields):
+    """(η_geo,K² on the owned cells, the largest δ_F over Γ_C ∪ Γ_N, the same on every rank); zeros, and no
+    assembly, where every facet there is flat. σ(u_h) is constant on each cell (P1), so each facet's term is
+    δ_F |F| |σ_K|² with |σ_K|² = ∫_K |σ|² / |K| from one cellwise assembly; a facet's term goes to its cell
+    (a ghost's to the owner): per facet, since a cell may have facets of several groups."""
+    from .indicators import assemble_cellwise  # (indicators imports this module)
     domain = fields.domain
     msh, comm = domain.mesh, domain.comm
+    tdim = msh.topology.dim
+    cells_map = msh.topology.index_map(tdim)
     groups = tuple(fields.ids["contact"]) + tuple(fields.ids["neumann"])
     tags = domain.facet_tags
     on = np.isin(tags.values, groups)
-    facets, facet_groups = tags.indices[on], tags.values[on]
-    sag = shape.facet_sag(domain, facets, facet_groups)
+    facets = tags.indices[on]
+    sag = shape.facet_sag(domain, facets, tags.values[on])
     largest = comm.allreduce(float(sag.max()) if len(sag) else 0.0, MPI.MAX)
-    Q = cell_space(msh)
     if largest == 0.0:
-        return None, Q, 0.0
-    delta = fem.Function(cell_space(msh))  # δ_K at the (local) cell of each facet this rank integrates
+        return np.zeros(cells_map.size_local), 0.0
+    Qv, s = cell_space(msh, 2), fields.sigma(u)
+    w = ufl.TestFunction(Qv)
+    volume_and_energy = assemble_cellwise((w[0] + ufl.inner(s, s) * w[1]) * ufl.dx(metadata={"quadrature_degree": 0}), Qv)
+    stress_squared = owned_values_with_ghosts(cell_space(msh), volume_and_energy[:, 1] / volume_and_energy[:, 0])
     _, cells, _ = cells_of_facets(msh, facets)
-    np.maximum.at(delta.x.array, cells, sag)
-    s = fields.sigma(u)  # constant on each cell (P1): a one-point rule is exact
-    form = delta * ufl.inner(s, s) * ufl.TestFunction(Q) * fields.ds(groups, metadata={"quadrature_degree": 0})
-    return form, Q, largest
+    per_cell = dolfinx.la.vector(cells_map, 1)  # zeros, ghosts included
+    np.add.at(per_cell.array, cells, sag * facet_measures(msh, facets) * stress_squared.x.array[cells])
+    per_cell.scatter_reverse(versions.SCATTER_ADD)
+    return per_cell.array[:cells_map.size_local].copy(), largest
+
+
+def facet_measures(msh, facets):
+    """|F| of local facets: the length of an edge, the area of a triangle."""
+    x = shape.facet_points(msh, facets)
+    if msh.topology.dim == 2:
+        return np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
+    return 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)

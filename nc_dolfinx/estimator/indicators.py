@@ -71,7 +71,7 @@ from dolfinx import fem
 from .. import dolfinx_versions as versions
 from ..mesh.domain import cell_space
 from ..physics import elasticity, forms, friction
-from .geometric import geometric_form
+from .geometric import geometric_term
 from .geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
 from .kink import law_residual_squared
 
@@ -169,7 +169,7 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     eta_sq = eta_1_sq + eta_2_sq
     eta_sq += eta_3_sq
     eta_sq += eta_4_sq
-    geometry_sq, sag = _geometric_term(u, fields)
+    geometry_sq, sag = geometric_term(u, fields)
     squares = {"eta_1": eta_1_sq, "eta_2": eta_2_sq, "eta_3": eta_3_sq, "eta_4": eta_4_sq, "eta": eta_sq,
                "zeta": zeta_sq, GEOMETRY: geometry_sq}
     fields_out = {name: owned_values_with_ghosts(Q, squares[name], name, np.sqrt) for name in (*NAMES, GEOMETRY)}
@@ -178,14 +178,6 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     totals["geometry_sag"] = sag
     marking = eta_sq if sag == 0.0 else eta_sq + geometry_sq  # the geometry is refined where it is coarse too
     return Estimate(fields_out, totals, time.perf_counter() - start, marking)
-
-
-def _geometric_term(u, fields):
-    """η_geo,K² on the owned cells and the largest sag δ_F (:mod:`.geometric`); zeros on flat boundaries."""
-    form, Q, sag = geometric_form(u, fields)
-    if form is None:
-        return np.zeros(Q.dofmap.index_map.size_local), sag
-    return assemble_cellwise(form, Q)[:, 0].copy(), sag
 
 
 def _against(vector, wv, first):

@@ -122,16 +122,19 @@ def surface_of(spec, gdim, parameters, where):
     for key in ("centre", "point", "normal", "axis"):
         if key in value and len(value[key]) != gdim:
             raise InputError(f"{where}.{kind}.{key} has {len(value[key])} components but the mesh is {gdim}D")
-    if kind == "plane":
-        return Plane(value["point"], value["normal"])
-    if kind in ("circle", "sphere"):
-        return Sphere(value["centre"], value["radius"])
-    if kind == "cylinder":
-        return Cylinder(value["centre"], value["axis"], value["radius"])
     try:
-        return Implicit(value, parameters, gdim)
+        return _SURFACES[kind](value, parameters, gdim)
     except InputError as err:
-        raise InputError(f"{where}.implicit: {err}") from None
+        raise InputError(f"{where}.{kind}: {err}") from None
+
+
+_SURFACES = {
+    "plane": lambda v, parameters, gdim: Plane(v["point"], v["normal"]),
+    "circle": lambda v, parameters, gdim: Sphere(v["centre"], v["radius"]),
+    "sphere": lambda v, parameters, gdim: Sphere(v["centre"], v["radius"]),
+    "cylinder": lambda v, parameters, gdim: Cylinder(v["centre"], v["axis"], v["radius"]),
+    "implicit": Implicit,
+}
 
 
 def _group_id(domain, name):
@@ -152,7 +155,7 @@ def _facets_by_group(domain):
     return {int(g): tags.indices[tags.values == g] for g in np.unique(tags.values)}
 
 
-def _facet_points(msh, facets):
+def facet_points(msh, facets):
     """The vertices of local facets, (n, tdim, gdim)."""
     nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
     return msh.geometry.x[nodes.reshape(-1), :msh.geometry.dim].reshape(len(facets), msh.topology.dim,
@@ -160,7 +163,7 @@ def _facet_points(msh, facets):
 
 
 def _check_on_surface(domain, group_id, surface, facets, tolerance):
-    points = _facet_points(domain.mesh, facets).reshape(-1, domain.mesh.geometry.dim)
+    points = facet_points(domain.mesh, facets).reshape(-1, domain.mesh.geometry.dim)
     distance = surface.distance(points) if len(points) else np.zeros(0)
     worst = float(distance.max()) if len(distance) else 0.0
     worst_everywhere = domain.comm.allreduce(worst, MPI.MAX)
@@ -178,7 +181,7 @@ def _name(domain, group_id):
 
 def facet_normals(msh, facets):
     """Unit normals of local boundary facets, pointing out of their cell."""
-    points = _facet_points(msh, facets)
+    points = facet_points(msh, facets)
     gdim = msh.geometry.dim
     if gdim == 2:
         t = points[:, 1] - points[:, 0]
@@ -198,12 +201,12 @@ def _plane_of(domain, facets, scale):
     msh, comm = domain.mesh, domain.comm
     local = None
     if len(facets):
-        local = (_facet_points(msh, facets[:1])[0, 0], facet_normals(msh, facets[:1])[0])
+        local = (facet_points(msh, facets[:1])[0, 0], facet_normals(msh, facets[:1])[0])
     candidates = [c for c in comm.allgather(local) if c is not None]
     if not candidates:
         return None
     plane = Plane(*candidates[0])
-    points = _facet_points(msh, facets).reshape(-1, msh.geometry.dim)
+    points = facet_points(msh, facets).reshape(-1, msh.geometry.dim)
     flat = bool(np.all(np.abs(plane.phi(points)) <= FLAT_TOLERANCE * scale)) if len(points) else True
     return plane if comm.allreduce(flat, MPI.LAND) else None
 
@@ -363,7 +366,7 @@ def facet_sag(domain, facets, groups):
     out = np.zeros(len(facets))
     if shapes is None:
         return out
-    points = _facet_points(msh, facets)
+    points = facet_points(msh, facets)
     k = points.shape[1]
     probes = [points.mean(axis=1)] + [0.5 * (points[:, i] + points[:, j]) for i in range(k) for j in range(i + 1, k)]
     for group in np.unique(groups):

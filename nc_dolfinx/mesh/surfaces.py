@@ -11,16 +11,16 @@ Every surface gives φ(x) and its gradient ∇φ(x) for points x (n, gdim):
   other expression: :func:`nc_dolfinx.problem.expressions.to_sympy`), never typed by the user;
 - :class:`~nc_dolfinx.mesh.cad.CadSurface` (in :mod:`.cad`): gmsh's closest point on CAD entities.
 
-:func:`project` moves points onto the intersection of their surfaces by Gauss–Newton steps of minimal norm,
-x ← x − ∇Φᵀ(∇Φ ∇Φᵀ)⁺ Φ(x) (Φ the surfaces' φ stacked): one step for a plane or a sphere, quadratic
-convergence for any smooth φ with ∇φ ≠ 0 there, and onto the common curve where a vertex lies on two
-groups (a sphere and a symmetry plane), onto the common point where it lies on three.
+:func:`project` finds the closest points on the intersection of surfaces: Gauss–Newton steps of minimal
+norm, x ← x − ∇Φᵀ(∇Φ ∇Φᵀ)⁺ Φ(x) (Φ the surfaces' φ stacked), reach it (quadratically for any smooth φ with
+∇φ ≠ 0 there), then the move's tangential part is taken out until it is normal to them: onto the common
+curve where a vertex lies on two groups (a sphere and a symmetry plane), the common point on three.
 """
 import numpy as np
 
 from ..errors import InputError
 
-PROJECTION_STEPS = 40        # Gauss–Newton steps at most (a plane or a sphere needs one)
+PROJECTION_STEPS = 40        # Gauss–Newton steps (and closest-point passes) at most
 PROJECTION_TOLERANCE = 1e-14  # |φ|/|∇φ| at the end, relative to the size of the body
 
 
@@ -52,7 +52,7 @@ class Plane(Surface):
 
     def __init__(self, point, normal):
         self.point = np.asarray(point, float)
-        self.normal = _unit(normal, "plane.normal")
+        self.normal = _unit(normal, "the normal")
 
     def phi(self, x):
         return (x - self.point) @ self.normal
@@ -81,7 +81,7 @@ class Cylinder(Surface):
     name = "cylinder"
 
     def __init__(self, centre, axis, radius):
-        self.centre, self.axis, self.radius = np.asarray(centre, float), _unit(axis, "cylinder.axis"), float(radius)
+        self.centre, self.axis, self.radius = np.asarray(centre, float), _unit(axis, "the axis"), float(radius)
 
     def _off_axis(self, x):
         d = x - self.centre
@@ -137,10 +137,28 @@ def _radial(d):
 
 
 def project(x, surfaces, scale=1.0):
-    """Points x (n, gdim) moved onto the intersection of ``surfaces`` (the same for every point) by
-    Gauss–Newton steps of minimal norm (module docstring). ``scale``: the body's size, for the tolerance.
-    Raises InputError where a point does not reach its surfaces (φ without a zero near it, ∇φ = 0)."""
-    x = np.array(x, dtype=float)
+    """The closest points to x (n, gdim) on the intersection of ``surfaces`` (the same for every point).
+    Gauss–Newton steps of minimal norm reach the intersection (:func:`_onto`); where φ is not a distance
+    the point they reach is not the closest, so the distance's tangential part is then taken out and the
+    surfaces reached again, until the move from x is normal to them (the closest point's condition; linear
+    convergence at the rate distance × curvature, one pass for a plane or a sphere).
+    ``scale``: the body's size, for the tolerances. Raises InputError where a point does not reach its
+    surfaces (φ without a zero near it, ∇φ = 0)."""
+    start = np.array(x, dtype=float)
+    on = _onto(start.copy(), surfaces, scale)
+    for _ in range(PROJECTION_STEPS):
+        gradients = np.stack([s.gradient(on) for s in surfaces], axis=1)  # (n, k, gdim)
+        offset = start - on
+        tangential = offset - np.einsum("nkg,nk->ng", gradients, _solve_normal_equations(
+            gradients, np.einsum("nkg,ng->nk", gradients, offset)))
+        if np.all(np.linalg.norm(tangential, axis=1) <= PROJECTION_TOLERANCE * scale):
+            return on
+        on = _onto(on + tangential, surfaces, scale)
+    return on
+
+
+def _onto(x, surfaces, scale):
+    """x moved onto the intersection of ``surfaces`` by Gauss–Newton steps of minimal norm (in place)."""
     if len(x) == 0:
         return x
     tolerance = PROJECTION_TOLERANCE * scale

@@ -36,6 +36,12 @@ COLUMNS = {
     "eta_4": "η_4: residual of the law, c_n (u_hn − g_0)_+^m_n + σ_n(u_h) on Γ_C (Definition 5)",
     "eta": "the estimator η = (Σ_K η_K²)^½, η_K² = η_1K² + … + η_4K²",
     "zeta": "data oscillation ζ (§4.1)",
+    "eta_geometry": "geometric term η_geo = (Σ_K η_geo,K²)^½, η_geo,K² = Σ δ_F ‖σ(u_h)‖²_F over the facets F of K on "
+                    "Γ_C ∪ Γ_N: how far the mesh's boundary lies from the body's true shape (not in η; it joins "
+                    "η_K² in the marking; see Theory)",
+    "geometry_sag": "the largest δ_F on Γ_C ∪ Γ_N: the distance of a boundary facet from its group's true shape "
+                    "(the chord's sag where the shape is given, the level-0 facets' sag where it is not, 0 on "
+                    "flat groups)",
     "newton_iterations": "Newton (SNES) iterations of the level",
     "linear_iterations": "Krylov iterations summed over the level's Newton steps",
     "converged_reason": "PETSc SNES converged reason, or CONVERGED_ROUNDOFF (the residual within its round-off, see Solver)",
@@ -92,6 +98,7 @@ FIELDS = {
     "von_mises": "DG0 von Mises stress of the 3×3 stress",
     "eta": "DG0 η_K (eta_1 … eta_4: its parts η_1K … η_4K)",
     "zeta": "DG0 oscillation ζ_K",
+    "eta_geometry": "DG0 geometric term η_geo,K (how far the cell's Γ_C ∪ Γ_N facets lie from the true shape)",
     "region": "DG0 material region id of the cell (VTU files)",
 }
 
