@@ -36,7 +36,8 @@ class Domain:
     ``facet_tags``: the owned exterior facets tagged with their group id (``UNTAGGED`` = 0 in none);
     ``region``: a DG0 function of the cells' region ids; ``facet_groups`` / ``cell_groups``: name → id;
     ``shapes``: the surface each boundary group lies on (:mod:`nc_dolfinx.mesh.shape`; set from the problem
-    when it is bound, kept by refinement, which places new boundary vertices on it).
+    when it is bound, kept by refinement, which places new boundary vertices on it); ``cad``: the CAD the
+    mesh was made from (a gmsh model's, :func:`from_gmsh_model`), where the shapes not given are found.
     Made by :func:`rectangle`, :func:`box`, :func:`from_gmsh`, :func:`from_gmsh_model`,
     :func:`from_dolfinx` or :func:`build_domain`; :func:`refine` returns the next one.
     """
@@ -46,6 +47,7 @@ class Domain:
     facet_groups: dict  # name -> id
     cell_groups: dict  # name -> id
     shapes: object = None  # the true shape of each boundary group (:class:`~nc_dolfinx.mesh.shape.Shapes`)
+    cad: object = None     # the CAD the mesh was made from (:class:`~nc_dolfinx.mesh.cad.Cad`), if known
 
     @property
     def comm(self):

@@ -47,10 +47,20 @@ def gmsh_session():
     after a gmsh mesh was built would kill a run on trixie and sid instead of ending it cleanly."""
     gmsh = import_gmsh()
     _keep_sigint(gmsh.initialize)
+    _SESSIONS.append(gmsh)
     try:
         yield gmsh
     finally:
+        _SESSIONS.pop()
         _keep_sigint(gmsh.finalize)
+
+
+_SESSIONS = []  # the sessions of gmsh_session now open (gmsh 4.8 cannot say whether it is initialised)
+
+
+def in_session():
+    """Whether a :func:`gmsh_session` is open (gmsh is initialised by this package)."""
+    return bool(_SESSIONS)
 
 
 def _keep_sigint(call):
@@ -211,7 +221,26 @@ def _to_domain(comm, model, rank, where):
     _raise_everywhere(comm, error, rank)
     facet_names, cell_names, tdim = comm.bcast(info, root=rank)
     msh, cell_tags, facet_tags = versions.model_to_mesh(model, comm, rank, gdim=tdim)
-    return from_dolfinx(msh, facet_tags, facet_names, cell_tags, cell_names)
+    domain = from_dolfinx(msh, facet_tags, facet_names, cell_tags, cell_names)
+    domain.cad = comm.bcast(_model_cad() if comm.rank == rank else None, root=rank)
+    return domain
+
+
+def _model_cad():
+    """The current gmsh model's CAD as BREP (OpenCASCADE kernel), for refinement onto the true shape
+    (:mod:`.cad`); None for a model without one (gmsh's built-in kernel writes no BREP)."""
+    from .cad import Cad
+    folder = tempfile.mkdtemp()
+    try:
+        path = os.path.join(folder, "model.brep")
+        import_gmsh().write(path)
+        with open(path, "rb") as file:
+            data = file.read()
+        return Cad(data, ".brep") if b"CASCADE" in data[:200] else None
+    except Exception:  # no OpenCASCADE shapes: no CAD to keep
+        return None
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def _inspect(model, where):

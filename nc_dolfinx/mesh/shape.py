@@ -7,8 +7,9 @@ boundary stays the level-0 polygon (polyhedron) however far the adaptive loop go
 
 - :func:`resolve` gives each boundary group of a level-0 :class:`~nc_dolfinx.mesh.domain.Domain` its
   :class:`Shapes` entry: the surface of ``[mesh.shapes]`` (:mod:`.surfaces`: plane, circle, sphere,
-  cylinder, an implicit φ(x) = 0) or of the CAD (:mod:`.cad`); else a plane where the group's level-0
-  facets are coplanar (found, not asked for); else nothing, and the group is *faceted*: its level-0 sag
+  cylinder, an implicit φ(x) = 0); else a plane where the group's level-0 facets are coplanar (found, not
+  asked for); else the CAD's surfaces under its vertices (:mod:`.cad`: ``mesh.cad``, or a gmsh model's);
+  else nothing, and the group is *faceted*: its level-0 sag
   (how far its facets depart from the smooth surface through their vertices, :func:`facet_sag`) is kept
   for the warning and for the estimator's geometric term. Level-0 vertices must lie on their given
   surface (``mesh.shape_tolerance`` × the body's size), else an error names the group and the distance.
@@ -90,19 +91,53 @@ def resolve(domain, problem=None, extra=None):
     else:
         tolerance = DEFAULT_TOLERANCE * scale
     facets = _facets_by_group(domain)
+    none = np.zeros(0, np.int32)
     for group_id, surface in given.items():
-        _check_on_surface(domain, group_id, surface, facets.get(group_id, np.zeros(0, np.int32)), tolerance)
-    shapes = Shapes(dict(given), frozenset(given), scale=scale)
+        _check_on_surface(domain, group_id, surface, facets.get(group_id, none), tolerance)
+    cad = _cad_of(domain, problem)
+    found = {}
     for group_id in _all_groups(domain):
         if group_id in given:
             continue
-        plane = _plane_of(domain, facets.get(group_id, np.zeros(0, np.int32)), scale)
-        if plane is not None:
-            shapes.surfaces[group_id] = plane
-        else:
-            shapes.sag[group_id], shapes.angle[group_id] = _level0_sag(domain, facets.get(group_id, np.zeros(0, np.int32)))
+        plane = _plane_of(domain, facets.get(group_id, none), scale)
+        surface = plane if plane is not None or cad is None else \
+            _cad_surface(domain, cad, group_id, facets.get(group_id, none), tolerance)
+        if surface is not None:
+            found[group_id] = surface
+    curved_found = {i for i, s in found.items() if not isinstance(s, Plane)}
+    shapes = Shapes({**given, **found}, frozenset(given) | frozenset(curved_found), scale=scale)
+    for group_id in _all_groups(domain):
+        if group_id not in shapes.surfaces:
+            shapes.sag[group_id], shapes.angle[group_id] = _level0_sag(domain, facets.get(group_id, none))
     domain.shapes = shapes
     return shapes
+
+
+def _cad_of(domain, problem):
+    """The problem's ``mesh.cad`` (read on every rank), else the CAD the domain came with, else None."""
+    path = problem.values["mesh"].get("cad") if problem is not None else None
+    if path is None:
+        return domain.cad
+    from .cad import Cad
+    return Cad.read(path)
+
+
+def _cad_surface(domain, cad, group_id, facets, tolerance):
+    """The CAD entities under a group's level-0 vertices as its surface (None if the group has none there);
+    a vertex on no CAD entity is an error naming the group."""
+    from .cad import CadSurface, entities_under
+    msh = domain.mesh
+    points = msh.geometry.x[np.unique(versions.entities_to_geometry(msh, msh.topology.dim - 1, facets))]
+    tags, distance = entities_under(cad, points, msh.topology.dim - 1, tolerance)
+    tags = sorted(set().union(*domain.comm.allgather(tags)))
+    worst = domain.comm.allreduce(float(distance.max()) if len(distance) else 0.0, MPI.MAX)
+    if not tags:
+        return None
+    if not worst <= tolerance:
+        name = _name(domain, group_id)
+        raise InputError(f"mesh.cad: a level-0 vertex of group '{name}' lies {worst:.3g} from every surface of the "
+                         f"CAD (tolerance {tolerance:.3g}): the mesh was not made from this CAD")
+    return CadSurface(cad, msh.topology.dim - 1, tags)
 
 
 DEFAULT_TOLERANCE = 1e-6

@@ -50,8 +50,9 @@ class Problem:
         values, given = schema.validate(raw)
         _check_consistency(values, given)
         mesh = values["mesh"]
-        if mesh["file"] is not None and source is not None:
-            mesh["file"] = str((Path(source).parent / mesh["file"]).resolve())
+        for key in ("file", "cad"):  # relative to the problem file
+            if mesh.get(key) is not None and source is not None:
+                mesh[key] = str((Path(source).parent / mesh[key]).resolve())
         problem = cls(name=name, values=values, given=given, raw=raw,
                       source=Path(source) if source else None, overrides=tuple(overrides))
         problem._step_ends()  # every state a load path reaches is valid before anything runs
