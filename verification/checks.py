@@ -409,10 +409,11 @@ BUILDERS = {"manufactured": manufactured, "closed_form": closed_form, "penalty":
 def evaluate(results, errors, mode):
     import checks3d  # the 3D studies (it imports this module's helpers)
     import checks_friction  # the friction studies (issue 32)
-    titles = {**TITLES, **checks3d.TITLES, **checks_friction.TITLES}
-    builders = {**BUILDERS, **checks3d.BUILDERS, **checks_friction.BUILDERS}
+    import curved  # curved bodies (issue 46): its worker and its checks in one module
+    titles = {**TITLES, **checks3d.TITLES, **checks_friction.TITLES, **curved.TITLES}
+    builders = {**BUILDERS, **checks3d.BUILDERS, **checks_friction.BUILDERS, **curved.BUILDERS}
     order = ["manufactured", "closed_form", "penalty", "hertz", "corner", "efficiency", "parallel", "sensitivity",
-             *checks3d.ORDER, *checks_friction.ORDER]
+             *checks3d.ORDER, *checks_friction.ORDER, *curved.ORDER]
     sections = []
     for key in order:
         source = "manufactured" if key == "efficiency" else key

@@ -71,10 +71,10 @@ def fmt(value, spec=".3e"):
     return format(value, spec)
 
 
-def provenance(script, argv, ranks=1):
+def provenance(script, argv, ranks=1, folder="verification"):
     """The lines that go beside a measurement's table: date (UTC), commit (and whether the tree differs from it),
     machine (with the DOLFINx version and the ranks) and the command that reproduces it (``script`` under
-    verification/, ``argv`` its arguments)."""
+    ``folder`` of the repository, ``argv`` its arguments)."""
     import datetime
     import platform
     import subprocess
@@ -93,4 +93,4 @@ def provenance(script, argv, ranks=1):
             f"- commit: {commit}",
             f"- machine: {platform.node()}, {platform.machine()}, {os.cpu_count()} cores, Python "
             f"{platform.python_version()}, DOLFINx {dolfinx.__version__}, {ranks} rank(s)",
-            f"- command: PYTHONPATH=. /usr/bin/python3 verification/{script} {' '.join(argv)}".rstrip()]
+            f"- command: PYTHONPATH=. /usr/bin/python3 {folder}/{script} {' '.join(argv)}".rstrip()]

@@ -28,15 +28,17 @@ import checks  # noqa: E402
 
 STUDY_ORDER = ["manufactured", "closed_form", "penalty", "hertz", "corner", "parallel",
                "manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d", "friction_exact",
-               "friction_manufactured", "cattaneo"]
+               "friction_manufactured", "cattaneo", "curved"]
 STUDIES_3D = {"manufactured3d", "hertz3d", "fichera", "penalty3d", "parallel3d"}  # run by worker3d.py
 STUDIES_FRICTION = {"friction_exact", "friction_manufactured", "cattaneo"}  # run by worker_friction.py
+STUDIES_OWN_WORKER = {"curved": "curved.py"}  # a study module that is its own worker and checks (issue 46)
 ON_ALL_RANK_COUNTS = {"parallel", "parallel3d"}
 PARALLEL_RANKS = (1, 2, 3)
 
 
 def run_worker(study, mode, nprocs, out_json, log, timeout):
-    worker = "worker3d.py" if study in STUDIES_3D else "worker_friction.py" if study in STUDIES_FRICTION else "worker.py"
+    worker = STUDIES_OWN_WORKER.get(study) or ("worker3d.py" if study in STUDIES_3D else
+                                               "worker_friction.py" if study in STUDIES_FRICTION else "worker.py")
     cmd = mpirun_prefix(nprocs) + [PYTHON, str(HERE / worker), study, "--mode", mode, "--out", str(out_json)]
     start = time.perf_counter()
     try:
