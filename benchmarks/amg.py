@@ -27,7 +27,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from common import (FLOOR_HYPRE, FLOOR_RTOL, LinearFloor, dofs, format_table, launch, machine_load,  # noqa: E402
-                    refine_uniformly)
+                    refine_uniformly, run_harness)
 import family  # noqa: E402
 
 # (the settings before, the same in 2D and 3D: the 3D ones with one aggressive level and Gauss–Seidel)
@@ -103,15 +103,7 @@ def main(argv=None):
     p.add_argument("--repeat", type=int, default=2)
     p.add_argument("--rtol", type=float, default=1e-10, help="true-residual tolerance of the compared solves")
     p.add_argument("--small", action="store_true", help="the family's smoke sizes (seconds: for the tests)")
-    p.add_argument("--timeout", type=float, default=1800)
-    p.add_argument("--json-out")
-    p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
-    p.add_argument("--body", help=argparse.SUPPRESS)
-    p.add_argument("--mesh", help=argparse.SUPPRESS)
-    p.add_argument("--tmp", help=argparse.SUPPRESS)
-    p.add_argument("--json", help=argparse.SUPPRESS)
-    args = p.parse_args(argv)
-    return worker(args) if args.worker else driver(args)
+    return run_harness(p, argv, worker, driver, hidden=("--body", "--mesh", "--tmp", "--json"))
 
 
 if __name__ == "__main__":

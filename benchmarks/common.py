@@ -63,6 +63,20 @@ def launch(cmd, nprocs, timeout, extra_env=None):
                           timeout=timeout)
 
 
+def run_harness(parser, argv, worker, driver, hidden=(), timeout=1800):
+    """What a benchmark whose driver launches itself as ``--worker`` processes shares: ``--timeout`` (per
+    worker process), ``--json-out``, and the worker's hidden arguments (``hidden``: names, or (name, type)
+    pairs); parses ``argv`` and runs the worker or the driver."""
+    import argparse
+    parser.add_argument("--timeout", type=float, default=timeout)
+    parser.add_argument("--json-out")
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    for name, kind in (item if isinstance(item, tuple) else (item, str) for item in hidden):
+        parser.add_argument(name, type=kind, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    return worker(args) if args.worker else driver(args)
+
+
 def legacy_available():
     """Whether legacy FEniCS 2019 (Debian's python3-dolfin) is importable."""
     return subprocess.run([PYTHON, "-c", "import dolfin"], capture_output=True).returncode == 0
