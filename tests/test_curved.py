@@ -162,3 +162,18 @@ def test_the_transfer_to_a_snapped_child_is_the_parent_at_edge_midpoints(meshes)
     values = child.x.array.reshape(-1, 2)[dof_of_node(child.function_space)]  # per geometry node
     expected = evaluate(u, xf)  # the parent's P1 function where the child's vertices were born
     assert np.abs(values - expected).max() <= 1e-12
+
+
+def test_the_benchmark_runs_at_a_tiny_size(tmp_path):
+    """benchmarks/curved_refinement.py, 1 rank, tiny meshes: its table and rows (snap timed, children larger)."""
+    import json
+    from conftest import run
+    out = tmp_path / "rows.json"
+    proc = run([ROOT / "benchmarks" / "curved_refinement.py", "--np", "1", "--sizes2d", "0.25", "--sizes3d", "0.5",
+                "--repeat", "1", "--json-out", out], timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "- commit:" in proc.stdout and "snap/refine" in proc.stdout
+    rows = json.loads(out.read_text())
+    assert {(r["body"], r["marking"]) for r in rows} == {(b, m) for b in ("half-disc", "quarter ball")
+                                                         for m in ("uniform", "local")}
+    assert all(r["cells"] > r["parent_cells"] and r["t_snap"] > 0 for r in rows)

@@ -13,7 +13,7 @@ from conftest import PYTHON, ROOT
 STUDIES = ["1. Manufactured solution", "2. Closed-form check", "3. Penalty → Signorini", "4. Hertz line contact",
            "5. Adaptive against uniform", "6. Local efficiency", "7. Parallel invariance",
            "9. 3D manufactured solution", "10. 3D Hertz contact", "11. 3D adaptive against uniform",
-           "12. 3D penalty → Signorini", "13. 3D parallel invariance"]
+           "12. 3D penalty → Signorini", "13. 3D parallel invariance", "17. Curved bodies"]
 
 
 @pytest.mark.long

@@ -226,6 +226,11 @@ and study 5 are the sharp tests.
     add(compose3d(sec, results, pictures, section_md))
     from narrative_friction import compose_friction
     add(compose_friction(sec, section_md))
+    if "curved" in sec:  # study 17 (issue 46)
+        from curved import PROSE
+        add(f"## {sec['curved'].title}\n")
+        add(PROSE)
+        add(section_md(sec["curved"]))
 
     add("## What this says about the paper's results\n")
     add(_conclusions(report, results))
