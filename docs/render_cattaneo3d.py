@@ -7,13 +7,13 @@ Run (no ParaView needed: it solves the case and draws with matplotlib)::
 
 The contact cap Γ_C of the half ball, seen from below (x to the right, the symmetry plane y = 0 at the
 top edge, the lower half plane y > 0 of the picture being the model; the mirror image y < 0 drawn faintly
-completes the full contact), at the end of the tangential loading: every Γ_C facet is cut into 16 similar
-triangles, each coloured by the state of the regularised Coulomb law at its centroid — stick (|Δu_t| ≤
-ε_r (u_n − g_0)_+, blue), slip (orange) or no contact (p = 0, light grey) — computed from the solution
-exactly as the history's stick_area / slip_area are (verification/cattaneo3d_patch.py: the solver's VTU
-output has no stick/slip field). Overlaid: Cattaneo–Mindlin's stick circle c = a (1 − Q/(μP))^(1/3)
-(black, with a the computed contact radius), the computed contact radius a = sqrt(2A/π) (dashed) and
-Hertz's a_H (dotted). The arrow shows the direction of the top's motion.
+completes the full contact), at the end of the tangential loading: every Γ_C facet is cut into the thirds
+the vertex rule gives its vertices, each coloured by the state of the regularised Coulomb law at its vertex,
+where the law is evaluated — stick (|s| ≤ ε_r (u·N − g̃_0)_+, blue), slip (orange) or no contact (light
+grey) — recomputed from the law's inputs by the rule of the output's stick_slip field
+(verification/cattaneo3d_patch.py): the drawn areas are the history's stick_area / slip_area. Overlaid:
+Cattaneo–Mindlin's stick circle c = a (1 − Q/(μP))^(1/3) (black, with a the computed contact radius),
+the computed contact radius a = sqrt(2A/π) (dashed) and Hertz's a_H (dotted). The arrow shows the direction of the top's motion.
 """
 import argparse
 import math
@@ -48,9 +48,8 @@ def main():
     patch = contact_facets(result.final.solution)
     if MPI.COMM_WORLD.rank != 0:
         return 0
-    R = final_state.parameters["R"]
     eps_r = final_state.values["contact"]["slip_regularisation"]
-    pieces, state, area, _ = classify(patch, R, eps_r, n=4)
+    pieces, state, area, _ = classify(patch, eps_r)
     m = measures(result.history[-1], final_state)
     a, c_mindlin = m["a"], m["a"] * m["c/a_mindlin"]
 
@@ -80,7 +79,7 @@ def main():
     ax.set_xlabel("x")
     ax.set_ylabel("y (seen from below)")
     ax.set_title(f"cattaneo3d: stick zone on Γ_C from below, Q/(μP) = {m['Q/muP']:.3f} (μ = "
-                 f"{final_state.parameters['mu']:g})\nstick radius sqrt(2 A_stick/π) = {m['c']:.4f}, "
+                 f"{final_state.parameters['mu']:g})\nstick radius a sqrt(A_stick/(A_stick + A_slip)) = {m['c']:.4f}, "
                  f"c/a = {m['c/a']:.3f} vs Mindlin {m['c/a_mindlin']:.3f} ({100 * m['c/a_error']:+.1f} %)",
                  fontsize=10)
     ax.legend(loc="lower left", fontsize=8, framealpha=0.9)

@@ -4,11 +4,12 @@ foundation, pressed, then pushed sideways with Coulomb friction), verification/c
 Tolerances, from the measurements of docs/src/cattaneo3d.md (shipped mesh, size h = R/100 ≈ a/10 at the
 contact): the contact radius a = sqrt(2A/π) is 2.5 % below Hertz's (−1.0 % on a mesh of size a/16: the
 edge of {p > 0} is located within a cell, and the penalty c_n = 1e3 E widens it slightly), so 5 % is
-asserted; the stick radius c over a is 4.5–6.2 % below Cattaneo–Mindlin's (1 − Q/(μP))^(1/3) for Q/(μP)
-= 0.18–0.49 (3.2–3.9 % on the finer mesh: mostly the stick zone's boundary located within a cell, the
-rest the normal–tangential coupling of a rigid base with ν ≠ 0.5 that Mindlin neglects, which also
-shifts the stick zone along x), so 9 % is asserted, with the sign (c/a below Mindlin's on this mesh) and
-the trend (the stick zone shrinks as Q grows). The case runs in about 10 s serially.
+asserted; the friction law's own contact measure (its vertices in contact, weighted by ∫ φ_i) is 3.7 %
+above the normal law's A (the edge counted by whole vertex patches), so 6 % is asserted; the stick radius
+c over a, sqrt(A_stick/(A_stick + A_slip)) in the law's classification at the vertices, is within 2.1 % of
+Cattaneo–Mindlin's (1 − Q/(μP))^(1/3) for Q/(μP) = 0.18–0.50 (+1.8, +2.1, +0.1 %; 4.5–6.2 % below it
+before issue 50, when a lumped projection classified the vertices), so 4 % is asserted, with the trend
+(the stick zone shrinks as Q grows). The case runs in about 25 s serially.
 """
 import json
 
@@ -33,7 +34,7 @@ def test_contact_radius_against_hertz(tangential_loading):
     rows, _, _ = tangential_loading
     for row in rows:
         assert abs(row["a_error"]) < 0.05, row
-        assert row["contact_area"] == pytest.approx(row["stick_area"] + row["slip_area"], rel=1e-6)
+        assert row["stick_area"] + row["slip_area"] == pytest.approx(row["contact_area"], rel=0.06)
 
 
 def test_stick_radius_against_cattaneo_mindlin(tangential_loading):
@@ -42,7 +43,7 @@ def test_stick_radius_against_cattaneo_mindlin(tangential_loading):
     ratios = [row["Q/muP"] for row in rows]
     assert 0.1 < ratios[0] < ratios[1] < ratios[2] < 0.7  # partial slip, growing Q at constant P
     for row in rows:
-        assert -0.09 < row["c/a_error"] < 0.0, row
+        assert abs(row["c/a_error"]) < 0.04, row
     sticks = [row["stick_area"] for row in rows]
     assert sticks[0] > sticks[1] > sticks[2] > 0
 
@@ -58,7 +59,8 @@ def test_friction_switched_on_without_motion_sticks_everywhere():
     result = nc.adapt(nc.Problem.from_dict(raw, "cattaneo3d-steps12", source=problem.source))
     pressed, switched = result.history
     assert pressed["stick_area"] == 0.0 and switched["slip_area"] == 0.0
-    assert switched["stick_area"] == pytest.approx(pressed["contact_area"], rel=1e-9)
+    # (the same vertices in contact: the law's measure of them)
+    assert switched["stick_area"] == pytest.approx(pressed["slip_area"], rel=1e-9)
     assert np.abs(switched["friction_force"]).max() < 1e-9 * switched["contact_resultant"]
 
 

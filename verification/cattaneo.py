@@ -9,7 +9,9 @@ Run: PYTHONPATH=. /usr/bin/python3 verification/cattaneo.py [--quick]   (serial;
 
 Quantities (history rows of nc.adapt): P = -reaction_top[1] (normal force per unit length), Q =
 |friction_force[0]| (the foundation's tangential force; reaction_top[0] also carries the x-component of the
-pressure on the curved Γ_C and is shown as Q_top), a = contact_length/2, c = stick_length/2. Theory: Hertz
+pressure on the curved Γ_C and is shown as Q_top), a = contact_length/2 (the normal law's {p > 0}),
+c = a · stick_length/(stick_length + slip_length) (the friction law's classification at the vertices of Γ_C,
+each weighted by ∫ φ_i: the ratio taken within that one measure). Theory: Hertz
 a_H = sqrt(4PR/(π E*)), E* = E/(1-ν²); Cattaneo–Mindlin c/a = (1 - Q/(μP))^{1/2}.
 """
 import math
@@ -56,6 +58,7 @@ def refined_domain(problem, uniform=0, local=0, comm=MPI.COMM_WORLD, box=0.12):
     """The case's mesh refined ``uniform`` times everywhere, then ``local`` times in the cells whose
     midpoints lie in |x| < box, y < box/4 (around the contact zone |x| < 0.083)."""
     domain = nc.build_domain(problem, comm)
+    nc.bind(problem, domain)  # (resolves the case's [mesh.shapes] on level 0: refinement puts new vertices on the arc)
     for _ in range(uniform):
         domain = nc.refine(domain)
     for _ in range(local):
@@ -86,31 +89,38 @@ def measure(problem, domain=None):
     P = -row["reaction_top"][1]
     Q = abs(row["friction_force"][0])
     a = row["contact_length"] / 2
-    c = row["stick_length"] / 2
+    c = a * _stick_fraction(row)
     hertz = nc.hertz_line_contact(P, 1.0, E, nu)
     ratio = Q / (mu * P)
     out = {"P": P, "Q": Q, "Q_top": abs(row["reaction_top"][0]), "a": a, "a_hertz": hertz["half_width"],
            "c": c, "c_over_a": c / a, "c_over_a_cm": math.sqrt(max(1 - ratio, 0.0)), "Q_over_muP": ratio,
            "mu": mu, "E": E, "nu": nu, "seconds": seconds, "dofs": row["dofs"],
            "passes": row.get("friction_passes"), "newton": row.get("friction_newton"), "P1": -first["reaction_top"][1],
-           "c1": first["stick_length"] / 2, "a1": first["contact_length"] / 2,
+           "c1": first["contact_length"] / 2 * _stick_fraction(first), "a1": first["contact_length"] / 2,
            "Q1": abs(first["friction_force"][0]), "max_slip": row["max_slip"]}
     out["profile"] = traction_profile(result.final.solution)
     return out
 
 
+def _stick_fraction(row):
+    """The stuck part of the friction law's contact zone (its vertices, weighted by ∫ φ_i), 0 without one."""
+    zone = row["stick_length"] + row["slip_length"]
+    return row["stick_length"] / zone if zone > 0 else 0.0
+
+
 def traction_profile(solution):
-    """Nodal (lumped L² projection on Γ_C) values of the pressure p and the x-component of the law's
-    tangential traction at the vertices of Γ_C in contact: rows (x, p, s_x), gathered on rank 0."""
+    """The pressure p (lumped L² projection on Γ_C) and the x-component of the law's tangential traction
+    at the vertices of Γ_C in contact, where the law is evaluated (the tangential_traction written for
+    ParaView): rows (x, p, s_x), gathered on rank 0."""
     u, fields = solution.u, solution.fields
     n = ufl.FacetNormal(fields.domain.mesh)
-    penetration = nc.penetration(u, fields, n)
     pressure = nc.contact_projection(nc.contact_pressure(u, fields, n), fields, "p")
-    shear = nc.contact_projection(nc.tangential_traction(u, penetration, fields.friction)[0], fields, "s")
-    V = pressure.function_space
+    shear = nc.SlipState.after(u, fields).traction  # (the return map: the law's σ_t at the vertices)
+    V, W = pressure.function_space, shear.function_space
     owned = V.dofmap.index_map.size_local
     x = V.tabulate_dof_coordinates()[:owned, 0]
-    rows = np.column_stack([x, pressure.x.array[:owned], shear.x.array[:owned]])
+    assert np.array_equal(x, W.tabulate_dof_coordinates()[:owned, 0])  # (the same vertex numbering)
+    rows = np.column_stack([x, pressure.x.array[:owned], shear.x.array[:2 * owned:2]])
     rows = rows[rows[:, 1] > 0]
     gathered = fields.domain.comm.gather(rows, root=0)
     if fields.domain.comm.rank != 0:

@@ -7,9 +7,10 @@ Run (any number of ranks; ``--set`` overrides as in run_cases.py)::
 
 It solves the case's load path and prints, for every state of the last step (the tangential loading),
 the full ball's normal force P = −2 reaction_top[2] and tangential force Q = 2 |friction_force[0]|, the
-contact radius a = sqrt(2 A/π) (A = stick_area + slip_area, the measure of {p > 0}: a half disc) against
-Hertz's a_H = (3PR/(4E*))^(1/3), E* = E/(1 − ν²), and the stick radius c = sqrt(2 A_stick/π) against
-Cattaneo–Mindlin's c/a = (1 − Q/(μP))^(1/3). The last line is JSON (the final state's numbers) for
+contact radius a = sqrt(2 A/π) (A = contact_area, the measure of {p > 0} of the normal law: a half disc)
+against Hertz's a_H = (3PR/(4E*))^(1/3), E* = E/(1 − ν²), and the stick radius over it,
+c/a = sqrt(A_stick/(A_stick + A_slip)) in the friction law's own classification (the vertices of Γ_C,
+weighted by m_i = ∫ φ_i: stick_area, slip_area), against Cattaneo–Mindlin's c/a = (1 − Q/(μP))^(1/3). The last line is JSON (the final state's numbers) for
 tests and docs. docs/src/cattaneo3d.md discusses the differences.
 """
 import argparse
@@ -34,10 +35,11 @@ def measures(row, problem):
     R, mu = problem.parameters["R"], problem.parameters["mu"]
     P = -2.0 * row["reaction_top"][2]
     Q = 2.0 * abs(row["friction_force"][0])
-    area = row["stick_area"] + row["slip_area"]
-    a = math.sqrt(2.0 * area / math.pi)
+    a = math.sqrt(2.0 * row["contact_area"] / math.pi)
     a_hertz = (3.0 * P * R * (1.0 - nu ** 2) / (4.0 * E)) ** (1.0 / 3.0)
-    c = math.sqrt(2.0 * row["stick_area"] / math.pi)
+    # (the stick and slip areas weigh the law's vertices, the contact area the normal law's Gauss points:
+    # the ratio is taken within the law's own measure)
+    c = a * math.sqrt(row["stick_area"] / (row["stick_area"] + row["slip_area"]))
     ratio = Q / (mu * P) if mu > 0 else float("nan")
     mindlin = (1.0 - ratio) ** (1.0 / 3.0) if ratio < 1 else 0.0
     return {"P": P, "Q": Q, "Q/muP": ratio, "a": a, "a_hertz": a_hertz, "a_error": a / a_hertz - 1.0,

@@ -1,16 +1,15 @@
-"""The contact cap of a cattaneo3d solution, sampled inside its facets: stick, slip or no contact, as the
-solver's friction_quantities classify them (nc_dolfinx/physics/quantities.py), for docs/render_cattaneo3d.py,
-verification/cattaneo3d.py and tests/test_cattaneo3d.py.
+"""The contact cap of a cattaneo3d solution: stick, slip or no contact at the vertices of Γ_C, where the
+friction law is evaluated (the vertex rule: nc_dolfinx/physics/forms.py, law_measure), for
+docs/render_cattaneo3d.py.
 
-At a point of a Γ_C facet the law's quantities are those of the UFL forms: u, u_prev (the previous load
-state, ``fields.friction.previous``), the spring's stretch w = (ε/F) σ_t,prev that carries the previous
-state's traction (nc_dolfinx/physics/slip_state.py; ε/F = ε_r/(μ c_n) is constant here, m_n = 1) and the
-vertex normal N (``fields.friction.normal``) are linear in the facet; the penetration is (u·ν − g_0)_+
-with ν the facet's outward normal and g_0 the sphere's height R − sqrt(R² − x² − y²) (the case's gap);
-s = (u − u_prev) − ((u − u_prev)·N) N − w, and the point slips where |s| > ε_r (u·ν − g_0)_+. Each facet
-is cut into n² similar triangles, each classified at its
-centroid: the areas then approximate the history's stick_area / slip_area (a quadrature of the same
-indicator), and the pieces draw the zones.
+At a vertex the law's quantities are nodal values: u, u_prev (the previous load state,
+``fields.friction.previous``), the spring's stretch w = (ε/F) σ_t,prev that carries the previous state's
+traction (nc.spring_stretch), the vertex normal N (``fields.friction.normal``) and the law's gap g̃_0
+(``fields.friction.gap``); the penetration is (u·N − g̃_0)_+, s = (u − u_prev) − ((u − u_prev)·N) N − w,
+and the vertex slips where |s| > ε_r (u·N − g̃_0)_+ — the rule of the output's stick_slip, recomputed here
+from the inputs. The vertex rule gives each vertex of a facet a third of it: the quadrilateral between the
+vertex, the midpoints of its two edges and the centroid, which is what is drawn (so the drawn areas are
+the history's stick_area / slip_area).
 """
 import numpy as np
 from mpi4py import MPI
@@ -50,46 +49,26 @@ def contact_facets(solution, comm=MPI.COMM_WORLD):
         return function.x.array.reshape(-1, 3)[dofs]
 
     local = (msh.geometry.x[to_geom[verts]], values(u), values(law.previous), values(law.normal),
-             values(nc.spring_stretch(u, fields)))
+             values(nc.spring_stretch(u, fields)), law.gap.x.array[dofs])
     gathered = comm.gather(local, root=0)
     if comm.rank != 0:
         return None
-    return tuple(np.concatenate([g[i] for g in gathered]) for i in range(5))
+    return tuple(np.concatenate([g[i] for g in gathered]) for i in range(6))
 
 
-def _subdivision(n):
-    """Barycentric coordinates of the centroids of the n² similar sub-triangles of a triangle, and the
-    barycentric corners of each (for drawing)."""
-    corners = []
-    for i in range(n):
-        for j in range(n - i):
-            a, b, c = (i, j), (i + 1, j), (i, j + 1)
-            corners.append([a, b, c])
-            if j < n - i - 1:
-                corners.append([(i + 1, j), (i + 1, j + 1), (i, j + 1)])
-    corners = np.array(corners, dtype=float) / n  # (n², 3, 2): (λ1, λ2) of each corner
-    bary = lambda l12: np.stack([1 - l12[..., 0] - l12[..., 1], l12[..., 0], l12[..., 1]], axis=-1)
-    return bary(corners.mean(axis=1)), bary(corners)
-
-
-def classify(patch, R, epsilon_r, n=4):
-    """(pieces (k, 3, 3) corner coordinates, state (k,) NO_CONTACT/STICK/SLIP, area (k,), traction ratio
-    |σ_t|/F (k,)) of the n² sub-triangles of every facet of ``patch`` (:func:`contact_facets`)."""
-    X, U, P, N, W = patch
-    centroid_bary, corner_bary = _subdivision(n)
-    normal = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
-    area = 0.5 * np.linalg.norm(normal, axis=1)
-    normal /= 2 * area[:, None]
-    centre = np.array([0.0, 0.0, R])
-    normal *= np.sign(np.einsum("fi,fi->f", normal, X.mean(axis=1) - centre))[:, None]  # outward
-    at = lambda A: np.einsum("sv,fvi->fsi", centroid_bary, A)  # (facets, n², 3)
-    x, u, du, nv, w = at(X), at(U), at(U - P), at(N), at(W)
-    gap = R - np.sqrt(np.maximum(R ** 2 - x[..., 0] ** 2 - x[..., 1] ** 2, 0.0))
-    penetration = np.maximum(np.einsum("fsi,fi->fs", u, normal) - gap, 0.0)
-    slip = du - np.einsum("fsi,fsi->fs", du, nv)[..., None] * nv - w
-    size = np.linalg.norm(slip, axis=-1)
-    length = epsilon_r * penetration
+def classify(patch, epsilon_r):
+    """(pieces (k, 4, 3) corner coordinates, state (k,) NO_CONTACT/STICK/SLIP, area (k,), traction ratio
+    |σ_t|/F (k,)): each facet of ``patch`` (:func:`contact_facets`) cut into its vertices' thirds (vertex,
+    edge midpoint, centroid, edge midpoint), each with its vertex's state."""
+    X, U, P, N, W, G = patch
+    du = U - P
+    penetration = np.maximum(np.einsum("fvi,fvi->fv", U, N) - G, 0.0)
+    slip = du - np.einsum("fvi,fvi->fv", du, N)[..., None] * N - W
+    size, length = np.linalg.norm(slip, axis=-1), epsilon_r * penetration
     state = np.where(penetration > 0, np.where(size > length, SLIP, STICK), NO_CONTACT)
     ratio = np.where(penetration > 0, size / np.maximum(np.maximum(size, length), 1e-300), 0.0)
-    pieces = np.einsum("scv,fvi->fsci", corner_bary, X)
-    return (pieces.reshape(-1, 3, 3), state.ravel(), np.repeat(area / n ** 2, n ** 2), ratio.ravel())
+    centroid = X.mean(axis=1)
+    pieces = np.stack([np.stack([X[:, v], (X[:, v] + X[:, (v + 1) % 3]) / 2, centroid,
+                                 (X[:, v] + X[:, (v + 2) % 3]) / 2], axis=1) for v in range(3)], axis=1)
+    area = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+    return pieces.reshape(-1, 4, 3), state.ravel(), np.repeat(area / 3, 3), ratio.ravel()

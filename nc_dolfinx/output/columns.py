@@ -54,13 +54,13 @@ COLUMNS = {
     "contact_force_y": "y component of −∫_Γ_C p ν",
     "contact_force_z": "z component of −∫_Γ_C p ν (3D)",
     "contact_length": "measure of {p > 0} on Γ_C (2D; contact_area in 3D)",
-    "friction_force_x": "with friction: x component of ∫_Γ_C s_t, the tangential force of the foundation on "
-                        "the body (_y, _z alike)",
-    "slip_length": "with friction: measure of the part of {p > 0} where the body slips, |s| > ε_r (u_hn − "
-                   "g_0)_+, s the spring's slip (2D; slip_area in 3D)",
-    "stick_length": "with friction: measure of the part of {p > 0} where it sticks, |s| <= ε_r (u_hn − g_0)_+ "
-                    "(2D; stick_area in 3D)",
-    "max_slip": "with friction: max of the nodal slip increment |Δu_t| on Γ_C (lumped projection)",
+    "friction_force_x": "with friction: x component of ∫_Γ_C s_t (vertex rule: the law at the vertices), the "
+                        "tangential force of the foundation on the body (_y, _z alike)",
+    "slip_length": "with friction: Σ m_i, m_i = ∫_Γ_C φ_i, over the vertices in contact that slip by the law's "
+                   "test |s| > ε_r (u·N − g̃_0)_+, s the spring's slip (stick_slip = 2; 2D, slip_area in 3D)",
+    "stick_length": "with friction: the same over the vertices in contact that stick, |s| <= ε_r (u·N − g̃_0)_+ "
+                    "(stick_slip = 1; 2D, stick_area in 3D)",
+    "max_slip": "with friction: the largest slip increment |Δu_t| at a vertex of Γ_C",
     "friction_passes": "with friction: passes of the fixed point on the friction bound (see Solver)",
     "friction_newton": "with friction: of newton_iterations, the steps of the consistent Newton finish (see Solver)",
     "max_penetration": "max of the nodal penetration (u_hn − g_0)_+ >= 0 on Γ_C",
@@ -91,9 +91,10 @@ ALIASES = {"contact_force": "contact_force_x", "contact_area": "contact_length",
 FIELDS = {
     "displacement": "P1 vector u_h (3 components in the VTU files: z = 0 in 2D)",
     "contact_pressure": "P1 p >= 0 on Γ_C (lumped L² projection), 0 elsewhere",
-    "tangential_traction": "with friction: P1 s_t on Γ_C, the law's tangential traction (lumped projection)",
-    "slip": "with friction: P1 slip increment Δu_t on Γ_C (lumped projection)",
-    "stick_slip": "with friction: P1 on Γ_C, 0 no contact, 1 stick, 2 slip (at the vertices)",
+    "tangential_traction": "with friction: P1 s_t on Γ_C, the law's tangential traction at the vertices (where it is evaluated)",
+    "friction_bound": "with friction: P1 F on Γ_C, the law's bound at the vertices: |s_t| = F where stick_slip = 2",
+    "slip": "with friction: P1 slip increment Δu_t on Γ_C (at the vertices)",
+    "stick_slip": "with friction: P1 on Γ_C, 0 no contact, 1 stick (|s| ≤ ε), 2 slip (|s| > ε): the law's test at the vertex",
     "stress": "DG0 3×3 Cauchy stress σ(u_h) (row-major xx, xy, xz, yx, …)",
     "von_mises": "DG0 von Mises stress of the 3×3 stress",
     "eta": "DG0 η_K (eta_1 … eta_4: its parts η_1K … η_4K)",

@@ -1,5 +1,4 @@
 """Fields for output beside the solution and its indicators, and the XDMF files that hold them."""
-import numpy as np
 import ufl
 from dolfinx import fem, io
 
@@ -34,22 +33,21 @@ def _interpolate(space, expr, name):
 
 
 def friction_fields(u, fields):
-    """With friction, on Γ_C (P1, lumped projections, 0 elsewhere): the law's tangential traction s_t (the
-    foundation's tangential traction on the body), the slip increment Δu_t over the load increment, and
-    ``stick_slip``: 0 out of contact, 1 where the vertex sticks (|s| <= ε_r (u_n − g_0)_+, s the spring's
-    slip :func:`~nc_dolfinx.physics.friction.spring_slip`), 2 where it slips. Without friction: an empty list."""
+    """With friction, the law at the vertices of Γ_C, where it is evaluated (:func:`~nc_dolfinx.physics.
+    forms.law_measure`; P1, nodal values, 0 elsewhere): its tangential traction s_t (the foundation's on the
+    body), its bound F = μ c_n (u·N − g̃_0)_+^{m_n} in Coulomb's case (``friction_bound``), the slip
+    increment Δu_t over the load increment, and ``stick_slip``: 0 where the vertex is out of contact
+    ((u·N − g̃_0)_+ = 0), 2 where it slips by the law's own test |s| > ε_r (u·N − g̃_0)_+ (s the spring's
+    slip :func:`~nc_dolfinx.physics.friction.spring_slip`; then |s_t| = F), 1 where it sticks (|s_t| ≤ F):
+    the state and the traction written beside it are the same evaluation of the law, so they cannot
+    disagree. Without friction: an empty list."""
     law = fields.friction
     if law is None:
         return []
-    n = ufl.FacetNormal(u.function_space.mesh)
-    penetration = forms.penetration(u, fields, n)
-    traction = contact_projection(friction.tangential_traction(u, penetration, law), fields, "tangential_traction")
-    slip = contact_projection(friction.slip_increment(u, law), fields, "slip")
-    spring = contact_projection(friction.spring_slip(u, penetration, law), fields, "spring_slip")
-    depth = contact_projection(penetration, fields, "penetration")
-    state = fem.Function(depth.function_space, name="stick_slip")
-    slip_size = np.linalg.norm(spring.x.array.reshape(-1, fields.dim), axis=1)
-    in_contact = depth.x.array > 0
-    state.x.array[:] = np.where(in_contact, np.where(slip_size > float(law.epsilon.value) * depth.x.array, 2.0, 1.0),
-                                0.0)
-    return [traction, slip, state]
+    depth = forms.law_penetration(u, fields, law.normal)
+    traction = friction.at_vertices(friction.tangential_traction(u, depth, law), law, "tangential_traction")
+    bound = friction.at_vertices(friction.friction_bound(depth, law), law, "friction_bound")
+    slip = friction.at_vertices(friction.slip_increment(u, law), law, "slip")
+    in_contact = ufl.conditional(ufl.gt(depth, 0), 1.0, 0.0)
+    state = friction.at_vertices(in_contact + friction.slipping(u, depth, law), law, "stick_slip")
+    return [traction, bound, slip, state]

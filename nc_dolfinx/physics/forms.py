@@ -45,6 +45,54 @@ def contact_measure(fields, degree=CONTACT_QUADRATURE_DEGREE):
     return fields.ds_of("contact")(metadata={"quadrature_degree": degree})
 
 
+def law_measure(fields):
+    """The measure of Γ_C with which the friction law is integrated: the vertex rule (the trapezoidal rule
+    on a 2D facet, the vertices of a 3D facet with a third of its area each), so that the law is evaluated
+    at the vertices of Γ_C only. Why: there every quantity the law needs is a nodal value (u, u_prev, the
+    vertex normal N, the memory σ_t,prev, all P1), so the traction carried from one load state to the next
+    (:mod:`.slip_state`) and the stick/slip state written for output are the law's own, not projections of
+    it (issue 50: lumped projections of a law solved at Gauss points reported stuck vertices as slipping).
+    Its weights make j_t(u, φ_i) = −m_i σ_t(x_i)·φ_i, m_i = ∫_Γ_C φ_i (a lumped, first order rule; the
+    normal law j_n keeps its Gauss rule, :func:`contact_measure`)."""
+    points, weights = VERTEX_RULES[fields.dim]
+    return fields.ds_of("contact")(metadata={"quadrature_rule": "custom", "quadrature_degree": 1,
+                                             "quadrature_points": points, "quadrature_weights": weights})
+
+
+# The vertex rule on the reference facet (an interval in 2D, a triangle in 3D), by dimension. Written out as a
+# custom rule: FFCx 0.5's "vertex" scheme takes the cell's vertices for a facet integral (an assertion).
+# (tuples: UFL hashes the metadata of a measure, and would turn arrays into their str())
+VERTEX_RULES = {2: (((0.0,), (1.0,)), (0.5, 0.5)),
+                3: (((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)), (1.0 / 6.0,) * 3)}
+
+
+def law_penetration(u, fields, normal):
+    """(u·N − g̃_0)_+, the penetration that gives the friction law its bound F and slip length ε at the
+    vertices of Γ_C: with the vertex normal N (``normal``, :func:`.friction.vertex_normal`) instead of the
+    facet normal ν, which jumps at a vertex of a curved Γ_C, so that at a vertex the law has one value for
+    all the facets around it (on a flat Γ_C, N = ν), and with the gap g̃_0 of :func:`vertex_gap`."""
+    return positive_part(normal_displacement(u, normal) - vertex_gap(fields))
+
+
+def vertex_gap(fields):
+    """g̃_0 = I g_0 − (∫_Γ_C (I g_0 − g_0) φ_i / ∫_Γ_C φ_i): the gap the friction law sees at the vertices
+    (P1, made once per mesh; I the P1 interpolant). Why not g_0(x_i) = I g_0 alone: the Gauss rule of the
+    normal law (7) sees the exact g_0 inside each facet, below its interpolant on a convex gap by about
+    h²/(8R) (R its radius of curvature), and the discrete u_h fits the pressure to that: its penetration at
+    the vertices is that much below the facet's mean, which under a stiff foundation is of the penetration's
+    own size (cattaneo3d, c_n = 1e3 E, h = R/100: Σ_i m_i μ c_n (u·N − g_0)_+(x_i) = 0.77 μP). g̃_0 takes
+    the lumped interpolation error off the gap, so that the vertex penetration is the lumped one of the
+    normal law where u_n curves like g_0 (in contact), and Σ_i m_i (u·N − g̃_0)_i = ∫ (I(u·N) − g_0)."""
+    law = fields.friction
+    if law.gap is None:
+        from .quantities import contact_projection  # (quantities imports this module)
+        from .friction import at_vertices
+        interpolant = at_vertices(fields.gap, law)
+        law.gap = contact_projection(interpolant - fields.gap, fields, "vertex_gap")
+        law.gap.x.array[:] = interpolant.x.array - law.gap.x.array
+    return law.gap
+
+
 @dataclass
 class NonlinearForms:
     """The pieces of (7). The bulk form a is bilinear and constant, so the solver assembles it once and
@@ -105,13 +153,13 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
     contact_energy = c_n / (m + 1) * penetration(u, fields, n) ** (m + 1) * dC
     pieces = NonlinearForms(a, L, j_n, ufl.derivative(j_n, u, du), contact_energy)
     if fields.friction is not None:  # the frozen bound's inner problem (see physics.friction)
-        law = fields.friction
-        bound = penetration(law.frozen, fields, n)
-        frictional_energy = friction.dissipation(u, bound, law) * dC
+        law, dL = fields.friction, law_measure(fields)  # (the law at the vertices of Γ_C: law_measure)
+        bound = law_penetration(law.frozen, fields, law.normal)
+        frictional_energy = friction.dissipation(u, bound, law) * dL
         pieces.contact_energy = pieces.contact_energy + frictional_energy
         pieces.j_t = ufl.derivative(frictional_energy, u, v)
         pieces.j_t_jacobian = ufl.derivative(pieces.j_t, u, du)
-        pieces.slip_stiffening = friction.slip_stiffening(u, du, v, bound, law) * dC
+        pieces.slip_stiffening = friction.slip_stiffening(u, du, v, bound, law) * dL
         pieces.frozen, pieces.previous, pieces.epsilon = law.frozen, law.previous, law.epsilon
         consistent = ufl.replace(pieces.contact_residual, {law.frozen: u})
         pieces.consistent_jacobian = ufl.derivative(consistent, u, du)

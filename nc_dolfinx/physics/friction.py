@@ -40,6 +40,14 @@ Jacobian, energy line search) solves it unchanged; then ū = u and again. It con
 Once a pass is near the solution, Newton's method on the full residual (the bound of u itself, the
 consistent and non-symmetric Jacobian) finishes the increment (:mod:`nc_dolfinx.solver.fixed_point`).
 
+Where the law is evaluated: at the vertices of Γ_C (the vertex rule, :func:`~.forms.law_measure`), with the
+bound and slip length of (u·N − g̃_0)_+ (:func:`~.forms.law_penetration`: the vertex normal N, and the gap
+g̃_0 that the vertex rule must see, :func:`~.forms.vertex_gap`). Every quantity the law needs is
+then a nodal value of a P1 function, so the memory σ_t,prev is a P1 function that holds the law's traction
+exactly where the law is evaluated (:mod:`.slip_state`), and the stick/slip state reported at a vertex is the
+law's own test there (:func:`slipping`, :func:`at_vertices`). j_t(u, φ_i) = −m_i σ_t(x_i)·(φ_i)_t with
+m_i = ∫_Γ_C φ_i: a lumped traction, as in node-to-surface contact.
+
 The tangential direction. Δu_t and the test function's v_t are projections on the plane normal to N, the
 normalised P1 average of the facet normals of Γ_C at each vertex (:func:`vertex_normal`). With the facet
 normal ν itself, which jumps at every vertex of a curved P1 boundary, a vertex shared by two facets would
@@ -74,6 +82,7 @@ class FrictionLaw:
     normal: fem.Function
     previous_traction: fem.Function  # σ_t at the previous load state (see spring_slip)
     key: str = "contact.friction"
+    gap: fem.Function = None  # g̃_0, the gap at the vertices of Γ_C (forms.vertex_gap makes it when first needed)
 
 
 def tangential(w, N):
@@ -96,6 +105,36 @@ def spring_slip(u, penetration, friction):
     bound = friction_bound(penetration, friction)
     compliance = ufl.conditional(ufl.le(bound, 0), 0, friction.epsilon * penetration / bound)
     return slip_increment(u, friction) - compliance * friction.previous_traction
+
+
+def slipping(u, penetration, friction):
+    """The law's own test: 1 where the spring's slip exceeds its slip length, |s| > ε = ε_r (u_n − g_0)_+
+    (:func:`spring_slip`: there |σ_t| = F, Coulomb's slip), 0 where it does not (stick: |σ_t| = F|s|/ε ≤ F)
+    or out of contact. The output's stick/slip state and the stick and slip areas are this expression at
+    the vertices of Γ_C, where the law is evaluated (``penetration``: the law's, (u·N − g̃_0)_+)."""
+    slip = spring_slip(u, penetration, friction)
+    beyond = ufl.conditional(ufl.gt(ufl.dot(slip, slip), (friction.epsilon * penetration) ** 2), 1.0, 0.0)
+    return ufl.conditional(ufl.gt(penetration, 0), beyond, 0.0)
+
+
+def at_vertices(expr, friction, name=None):
+    """A UFL quantity of the law (built of P1 functions and x, no facet normal) evaluated at the vertices of
+    Γ_C: a P1 Function (scalar or of ``expr``'s shape, on the law's mesh) with those values, 0 at every
+    other vertex (where the vertex normal N vanishes). Its nodal values are the law's where the law is
+    evaluated (:func:`~.forms.law_measure`): not a projection."""
+    msh = friction.normal.function_space.mesh
+    space = versions.p1_space(msh, expr.ufl_shape)
+    out = fem.Function(space, name=name) if name else fem.Function(space)
+    out.interpolate(fem.Expression(expr, versions.interpolation_points(space)))
+    values = out.x.array.reshape(-1, int(np.prod(expr.ufl_shape, dtype=int)))
+    values[~on_contact(friction)] = 0.0
+    return out
+
+
+def on_contact(friction):
+    """Which vertices (P1 dofs, ghosts included) lie on Γ_C: those where the vertex normal N is set."""
+    N = friction.normal
+    return np.any(N.x.array.reshape(-1, N.function_space.dofmap.index_map_bs) != 0, axis=1)
 
 
 def friction_bound(penetration, friction):

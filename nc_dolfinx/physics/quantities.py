@@ -60,28 +60,28 @@ def solution_quantities(u, fields):
 
 
 def friction_quantities(u, fields):
-    """With friction (:mod:`.friction`): ``friction_force`` ∫_Γ_C s_t, the tangential force the foundation
-    exerts on the body (s_t the law's tangential traction); ``slip_length``/``slip_area`` and
-    ``stick_length``/``stick_area``, the measures of the parts of the contact zone {p > 0} where the spring's
-    slip s (:func:`~nc_dolfinx.physics.friction.spring_slip`: the slip increment plus the stretch that
-    carries the previous state's traction) exceeds the regularisation's slip length ε_r (u_n − g_0)_+ (there
-    |s_t| = F: Coulomb's slip) and where it does not (|s_t| < F: the stick spring); as ε_r → 0 they tend to
-    Coulomb's slip and stick zones. ``max_slip``: the largest nodal |Δu_t| (a lumped projection on Γ_C)."""
+    """With friction (:mod:`.friction`), all with the law where it is evaluated, at the vertices of Γ_C
+    (the vertex rule :func:`~.forms.law_measure`, the law's penetration (u·N − g̃_0)_+): ``friction_force``
+    ∫_Γ_C s_t, the tangential force the foundation exerts on the body (s_t the law's tangential traction;
+    the j_t of the weak form with v = 1); ``slip_length``/``slip_area`` and ``stick_length``/``stick_area``,
+    Σ_i m_i over the vertices in contact that slip by the law's own test |s| > ε_r (u·N − g̃_0)_+
+    (:func:`~.friction.slipping`: there |s_t| = F, Coulomb's slip) and over those that stick (|s_t| ≤ F),
+    m_i = ∫_Γ_C φ_i: the vertex field ``stick_slip`` integrated (as ε_r → 0, Coulomb's zones);
+    ``max_slip``: the largest |Δu_t| at a vertex."""
     comm, law = fields.domain.comm, fields.friction
-    n = ufl.FacetNormal(fields.domain.mesh)
-    dC = forms.contact_measure(fields)
-    penetration = forms.penetration(u, fields, n)
+    dL = forms.law_measure(fields)
+    penetration = forms.law_penetration(u, fields, law.normal)
     traction = friction.tangential_traction(u, penetration, law)
-    slip, spring = friction.slip_increment(u, law), friction.spring_slip(u, penetration, law)
-    slipping = ufl.conditional(ufl.gt(ufl.dot(spring, spring), (law.epsilon * penetration) ** 2), 1.0, 0.0)
+    slipping = friction.slipping(u, penetration, law)
     in_contact = ufl.conditional(ufl.gt(penetration, 0), 1.0, 0.0)
     measure = "length" if fields.dim == 2 else "area"
-    slip_size = contact_projection(ufl.sqrt(ufl.dot(slip, slip)), fields, "slip")
-    n_owned = slip_size.function_space.dofmap.index_map.size_local
-    return {"friction_force": [integrate(traction[i] * dC, comm) for i in range(fields.dim)],
-            f"slip_{measure}": integrate(in_contact * slipping * dC, comm),
-            f"stick_{measure}": integrate(in_contact * (1 - slipping) * dC, comm),
-            "max_slip": comm.allreduce(float(np.max(slip_size.x.array[:n_owned], initial=0.0)), MPI.MAX)}
+    slip = friction.at_vertices(friction.slip_increment(u, law), law)
+    n_owned = slip.function_space.dofmap.index_map.size_local
+    slip_size = np.linalg.norm(slip.x.array.reshape(-1, fields.dim)[:n_owned], axis=1)
+    return {"friction_force": [integrate(traction[i] * dL, comm) for i in range(fields.dim)],
+            f"slip_{measure}": integrate(slipping * dL, comm),
+            f"stick_{measure}": integrate((in_contact - slipping) * dL, comm),
+            "max_slip": comm.allreduce(float(np.max(slip_size, initial=0.0)), MPI.MAX)}
 
 
 def support_forces(u, fields):

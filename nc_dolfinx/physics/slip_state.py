@@ -2,26 +2,26 @@
 from which the next increment's slip Δu_t is measured, and the tangential traction σ_t,prev there.
 
 At the end of each load increment the state moves on to u_h by the return map of the elastoplastic analogy
-of the regularised law (Wriggers' and Laursen's books, as cited in :mod:`.friction`), vertex by vertex on Γ_C:
+of the regularised law (Wriggers' and Laursen's books, as cited in :mod:`.friction`), at each vertex of Γ_C:
 
     s = Δu_t − (ε/F) σ_t,prev,   σ_t,prev ← −F s / max(|s|, ε),   u_prev ← u_h,
 
-(the law itself at the vertex; ε = ε_r (u_n − g_0)_+ and F lumped there, as the output's stick/slip field
-lumps them, s, Δu_t and N the vertex's own): a stuck vertex keeps its traction, a slipping one the bound
-F along its slip, so that a reversal must first unload the spring. Out of contact, or where F = 0,
-σ_t,prev = 0. Without this memory (each increment's spring starting unstretched) a stuck point carrying a
-tangential traction T had to stretch its spring anew in every increment: it crept by ε T/F per increment
-under a constant load. On a refined mesh the state moves as P1 functions do: exactly
+the law itself where it is evaluated: the friction law is integrated with the vertex rule
+(:func:`~nc_dolfinx.physics.forms.law_measure`) and its F, ε, s and N are nodal values there, so the new
+σ_t,prev is the traction the law had at those points, exactly, and a P1 function holds it exactly. A stuck
+vertex keeps its traction, a slipping one the bound F along its slip, so that a reversal must first unload
+the spring. Out of contact, or where F = 0, σ_t,prev = 0. Without this memory (each increment's spring
+starting unstretched) a stuck point carrying a tangential traction T had to stretch its spring anew in
+every increment: it crept by ε T/F per increment under a constant load. (Before issue 50 the law was
+evaluated at Gauss points and the memory was a lumped projection of it: not the law's traction, which
+moved the tractions locked in while pressing with friction by 11 %.) On a refined mesh the state moves
+as P1 functions do: exactly at the old vertices, linearly at the new ones
 (:func:`nc_dolfinx.mesh.refinement.transfer`)."""
 from dataclasses import dataclass
-
-import numpy as np
-import ufl
 
 from dolfinx import fem
 
 from . import forms, friction
-from .quantities import contact_projection
 
 
 @dataclass
@@ -42,27 +42,25 @@ class SlipState:
 
 
 def _at_vertices(u, fields):
-    """(F, ε, stretch, s) at the vertices of u's mesh: the bound and the slip length lumped (zero off Γ_C),
-    the stretch (ε/F) σ_t,prev and the spring's slip s = Δu_t − (ε/F) σ_t,prev (with the vertex normal)."""
+    """(F, ε, stretch, s) at the vertices of u's mesh, the law's own values there (zero off Γ_C): the bound
+    F and the slip length ε of (u·N − g̃_0)_+, the stretch (ε/F) σ_t,prev and the spring's slip
+    s = Δu_t − (ε/F) σ_t,prev (:func:`~.friction.spring_slip`), as arrays (ghosts included)."""
     law, dim = fields.friction, fields.dim
-    depth = forms.penetration(u, fields, ufl.FacetNormal(fields.domain.mesh))
-    bound = contact_projection(friction.friction_bound(depth, law), fields, "bound").x.array
-    length = float(law.epsilon.value) * contact_projection(depth, fields, "penetration").x.array
-    compliance = np.where(bound > 0, length / np.where(bound > 0, bound, 1.0), 0.0)
-    stretch = compliance[:, None] * law.previous_traction.x.array.reshape(-1, dim)
-    N = law.normal.x.array.reshape(-1, dim)
-    increment = (u.x.array - law.previous.x.array).reshape(-1, dim)
-    slip = increment - np.sum(increment * N, axis=1)[:, None] * N - stretch
+    depth = forms.law_penetration(u, fields, law.normal)
+    slip = friction.at_vertices(friction.spring_slip(u, depth, law), law).x.array.reshape(-1, dim)
+    stretch = friction.at_vertices(friction.slip_increment(u, law), law).x.array.reshape(-1, dim) - slip
+    bound = friction.at_vertices(friction.friction_bound(depth, law), law).x.array
+    length = friction.at_vertices(law.epsilon * depth, law).x.array
     return bound, length, stretch, slip
 
 
 def traction_at(u, fields):
-    """σ_t at the end of the increment that ends at u (the return map above), as an array of P1 values
-    (ghosts included)."""
-    bound, length, _, slip = _at_vertices(u, fields)
-    size = np.linalg.norm(slip, axis=1)
-    stiffness = np.where(bound > 0, bound / np.maximum(np.maximum(size, length), 1e-300), 0.0)
-    return (-stiffness[:, None] * slip).ravel()
+    """σ_t at the end of the increment that ends at u (the return map above): the law's tangential traction
+    :func:`~.friction.tangential_traction` at the vertices of Γ_C, as an array of P1 values (ghosts
+    included)."""
+    law = fields.friction
+    depth = forms.law_penetration(u, fields, law.normal)
+    return friction.at_vertices(friction.tangential_traction(u, depth, law), law).x.array.copy()
 
 
 def state_after(u, fields):
@@ -87,10 +85,10 @@ def start_state(law):
 
 
 def spring_stretch(u, fields):
-    """(ε/F) σ_t,prev at the vertices (ε = ε_r (u_n − g_0)_+ and F = c_t (u_n − g_0)_+^{m_t}, the pressure of
-    law (4) times μ in Coulomb's case, lumped at u), the part of the spring's slip s = Δu_t − (ε/F) σ_t,prev
-    that the previous state's traction leaves (the return map's memory): a P1 Function, for post-processing
-    that evaluates the law pointwise."""
+    """(ε/F) σ_t,prev at the vertices of Γ_C (ε = ε_r (u·N − g̃_0)_+ and F = c_t (u·N − g̃_0)_+^{m_t}, the
+    pressure of law (4) times μ in Coulomb's case, at u: the law's values there), the part of the spring's
+    slip s = Δu_t − (ε/F) σ_t,prev that the previous state's traction leaves (the return map's memory): a
+    P1 Function, for post-processing that evaluates the law at the vertices."""
     stretch = fem.Function(u.function_space, name="spring_stretch")
     stretch.x.array[:] = _at_vertices(u, fields)[2].ravel()
     return stretch
