@@ -10,7 +10,7 @@ adaptive loop), three things are timed on the parent, each on its own copy, the 
 - ``refine``: ``nc.refine`` of the parent with its shapes set to None (Plaza, the transfer of groups and
   regions, rebalancing: everything but the snap);
 - ``refine+snap``: ``nc.refine`` of the parent with its shapes (what the adaptive loop calls);
-- ``snap``: ``nc_dolfinx.mesh.shape.snap`` alone, on the child of the first with the shapes set back (the
+- ``snap``: ``nc.snap`` alone, on the child of the first with the shapes set back (the
   placing of the vertices, the cells' quality check and, if needed, the interior's harmonic move).
 
 Two markings: ``uniform`` (every cell) and ``local`` (the cells within R/4 of the contact point, where
@@ -37,12 +37,15 @@ def worker(args):
     import numpy as np
     from mpi4py import MPI
     import nc_dolfinx as nc
-    from nc_dolfinx.mesh import shape, surfaces
     comm = MPI.COMM_WORLD
     dim = args.dim
     domain = nc.from_gmsh(comm, args.mesh)
-    sphere = surfaces.Sphere([0.0, 1.0] if dim == 2 else [0.0, 0.0, 1.0], 1.0)
-    shape.resolve(domain, extra={domain.facet_groups[g]: sphere for g in ("contact", "free")})
+    surface = {"circle": {"centre": [0.0, 1.0], "radius": 1.0}} if dim == 2 else \
+        {"sphere": {"centre": [0.0, 0.0, 1.0], "radius": 1.0}}
+    shapes_only = nc.Problem.from_dict({  # a problem for its [mesh.shapes]: nothing is solved
+        "mesh": {"contact": ["contact"], "shapes": {"contact": surface, "free": surface}},
+        "material": {"E": 1.0, "nu": 0.3}, "contact": {"c_n": 1.0, "m_n": 1}, "loads": {"f": ["0"] * dim}})
+    nc.resolve_shapes(domain, shapes_only)
     parent = nc.refine(domain)  # on the surface, as a level of the adaptive loop
     shapes = parent.shapes
     flat = dataclasses.replace(parent, shapes=None)
@@ -64,7 +67,7 @@ def worker(args):
             times["refine+snap"].append(barrier_time(comm) - start)
             child = dataclasses.replace(child, shapes=shapes)
             start = barrier_time(comm)
-            shape.snap(child)
+            nc.snap(child)
             times["snap"].append(barrier_time(comm) - start)
         best = {k: rank_max(comm, min(v)) for k, v in times.items()}
         rows.append({"body": "half-disc" if dim == 2 else "quarter ball", "h": args.h, "marking": marking,

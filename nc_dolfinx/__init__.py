@@ -46,6 +46,7 @@ from .mesh.builtin import box, rectangle
 from .mesh.domain import Domain
 from .mesh.gmsh_io import from_gmsh, from_gmsh_model
 from .mesh.refinement import refine, transfer
+from .mesh.shape import resolve as resolve_shapes, snap
 from .mesh.tagged import from_dolfinx
 from .physics.binding import Fields, bind, build_domain
 from .physics.elasticity import lame, normal_stress, sigma
@@ -73,7 +74,7 @@ __all__ = [
     "Problem", "load_problem", "case_names", "case_path", "case_titles", "DEFAULT_CASE",
     "Domain", "build_domain", "rectangle", "box", "from_gmsh", "from_gmsh_model", "from_dolfinx",
     "Fields", "bind", "Solution", "solve",
-    "Estimate", "estimate", "mark", "refine", "transfer",
+    "Estimate", "estimate", "mark", "refine", "transfer", "resolve_shapes", "snap",
     "AdaptSettings", "Level", "Result", "adapt",
     "solution_quantities", "errors", "integrate", "contact_projection",
     "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure", "penetration", "slip_increment",

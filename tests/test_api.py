@@ -42,9 +42,7 @@ FRONT_END = [ROOT / PACKAGE / "cli" / "command_line.py", ROOT / PACKAGE / "cli" 
 # Files their owners are rewriting onto the public API (issue 12): while they still use private parts,
 # the test reports them as an expected failure (with the list) instead of failing; once a file is clean
 # its test passes, and its entry here can go.
-PENDING = {  # scripts whose private uses are known and being removed: name -> by what
-    "benchmarks/curved_refinement.py": "a public nc.snap / shape API (issue 46, next session)",
-}
+PENDING = {}
 
 # A docstring cites what it implements: the paper (equation, definition, section, remark, theorem, lemma)
 # or the named method. Utilities (files, meshes as containers, logging, errors) need no citation.

@@ -73,9 +73,12 @@ class Shapes:
 # --- level 0 ---------------------------------------------------------------------------------------
 
 def resolve(domain, problem=None, extra=None):
-    """The :class:`Shapes` of ``domain``'s boundary groups from ``problem``'s ``[mesh.shapes]`` (and
-    ``extra``: group id → Surface, e.g. a CAD's), set as ``domain.shapes`` and returned; checks that the
-    level-0 vertices lie on their surfaces. A domain that has its shapes keeps them."""
+    """The true shape of each boundary group of a level-0 ``domain``, on which Plaza refinement
+    (:func:`nc_dolfinx.refine`) then places the new boundary vertices: from ``problem``'s ``[mesh.shapes]``
+    (and ``extra``: group id → Surface, e.g. ``nc_dolfinx.mesh.surfaces.Sphere``), else a plane where a
+    group is flat, else the CAD's (``mesh.cad``, or a gmsh model's). Set as ``domain.shapes`` (a
+    :class:`Shapes`) and returned; checks that the level-0 vertices lie on their surfaces (InputError naming
+    the group and the distance). A domain that has its shapes keeps them; :func:`nc_dolfinx.bind` calls this."""
     if domain.shapes is not None:
         return domain.shapes
     msh = domain.mesh
@@ -290,9 +293,10 @@ def faceted_warning(domain, group_id, role):
 # --- after a refinement ----------------------------------------------------------------------------
 
 def snap(domain):
-    """Move the boundary vertices of a refined ``domain`` onto their groups' surfaces (module docstring).
-    Returns the coordinates before the move (for the transfer) if any vertex moved on any rank, else None.
-    Collective."""
+    """Move the boundary vertices of a Plaza-refined ``domain`` onto their groups' surfaces (``domain.shapes``,
+    :func:`resolve`): each onto the intersection of the surfaces of the groups around it, the interior moved
+    harmonically only where a cell would lose half its quality. :func:`nc_dolfinx.refine` calls it; returns
+    the coordinates before the move if any vertex moved on any rank, else None. Collective."""
     shapes = domain.shapes
     if shapes is None or not shapes.curved:
         return None
@@ -301,24 +305,27 @@ def snap(domain):
     groups = _all_groups(domain)
     around = _groups_around_nodes(domain, groups)  # (n_nodes, n_groups) bool
     before = msh.geometry.x.copy()
-    moved_any = False
-    for pattern in np.unique(around, axis=0):
-        ids = [g for g, present in zip(groups, pattern) if present]
-        if not ids or any(g not in shapes.surfaces for g in ids):  # interior, or by a faceted group
+    boundary = np.flatnonzero(around.any(axis=1))  # only boundary nodes can move (O(n^((d-1)/d)) of them)
+    code = around[boundary] @ (1 << np.arange(len(groups), dtype=np.int64))  # each node's groups as one integer
+    moved = np.zeros(len(before), dtype=bool)
+    for value in np.unique(code):
+        here = code == value
+        ids = [g for g, present in zip(groups, around[boundary[np.argmax(here)]]) if present]
+        if any(g not in shapes.surfaces for g in ids):  # by a faceted group
             continue
         surfaces = list({id(shapes.surfaces[g]): shapes.surfaces[g] for g in ids}.values())
         if all(isinstance(s, Plane) for s in surfaces):  # midpoints of flat facets are on them already
             continue
-        nodes = np.flatnonzero(np.all(around == pattern, axis=1))
+        nodes = boundary[here]
         x = before[nodes, :gdim]
         off = np.max([np.abs(s.phi(x)) / np.maximum(np.linalg.norm(s.gradient(x), axis=1), 1e-300)
                       for s in surfaces], axis=0) > ON_SURFACE * shapes.scale
         if np.any(off):
             msh.geometry.x[nodes[off], :gdim] = project(x[off], surfaces, shapes.scale)
-            moved_any = True
-    if not domain.comm.allreduce(moved_any, MPI.LOR):
+            moved[nodes[off]] = True
+    if not domain.comm.allreduce(bool(moved.any()), MPI.LOR):
         return None
-    _keep_cells_valid(domain, before)
+    _keep_cells_valid(domain, before, moved)
     return before
 
 
@@ -339,12 +346,13 @@ def _groups_around_nodes(domain, groups):
     return count.x.array.reshape(-1, len(groups))[at_node] > 0
 
 
-def cell_quality(msh, x=None):
-    """Signed quality of every local cell: its volume over that of the regular simplex with the same
-    root-mean-square edge (1 for a regular simplex, ≤ 0 for an inverted or flat one)."""
+def cell_quality(msh, x=None, cells=None):
+    """Signed quality of every local cell (or of ``cells``): its volume over that of the regular simplex with
+    the same root-mean-square edge (1 for a regular simplex, ≤ 0 for an inverted or flat one)."""
     x = msh.geometry.x if x is None else x
     tdim = msh.topology.dim
-    points = x[versions.geometry_nodes(msh)][:, :, :tdim]  # (n, tdim + 1, tdim): the cells' vertices
+    nodes = versions.geometry_nodes(msh)
+    points = x[nodes if cells is None else nodes[cells]][:, :, :tdim]  # (n, tdim + 1, tdim): the cells' vertices
     edges = points[:, 1:] - points[:, :1]
     volume = np.linalg.det(edges)
     pairs = [(i, j) for i in range(tdim + 1) for j in range(i + 1, tdim + 1)]
@@ -353,15 +361,18 @@ def cell_quality(msh, x=None):
     return volume / (regular * rms ** tdim)
 
 
-def _keep_cells_valid(domain, before):
-    """After the boundary moved: if a cell inverted or lost more than half its quality (cells keep their
-    orientation: the sign of det J is compared), extend the boundary's move harmonically into the interior;
-    a cell still inverted or below QUALITY_FLOOR of its quality is an error, on every rank."""
+def _keep_cells_valid(domain, before, moved):
+    """After the boundary moved (``moved``: which local nodes): if a cell inverted or lost more than half its
+    quality (cells keep their orientation: the sign of det J is compared), extend the boundary's move
+    harmonically into the interior; a cell still inverted or below QUALITY_FLOOR of its quality is an error,
+    on every rank. Only the cells with a moved node are measured first (the others keep their quality)."""
     msh = domain.mesh
-    q_before, q_after = cell_quality(msh, before), cell_quality(msh)
+    cells = np.flatnonzero(moved[versions.geometry_nodes(msh)].any(axis=1))
+    q_before, q_after = cell_quality(msh, before, cells), cell_quality(msh, cells=cells)
     ratio = q_after / np.where(q_before != 0, q_before, 1.0)
     if not domain.comm.allreduce(bool(np.any(ratio < QUALITY_KEPT)), MPI.LOR):
         return
+    q_before = cell_quality(msh, before)
     _extend_harmonically(domain, before)
     ratio = cell_quality(msh) / np.where(q_before != 0, q_before, 1.0)
     worst = domain.comm.allreduce(float(ratio.min()) if len(ratio) else 1.0, MPI.MIN)
