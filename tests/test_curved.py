@@ -98,8 +98,12 @@ def test_a_faceted_group_is_named_in_a_warning(meshes, tmp_path):
     for group, role in (("contact", "contact"), ("free", "neumann")):
         assert any(f"boundary group '{group}' ({role})" in line and "[mesh.shapes." in line for line in warnings), warnings
     assert not any("'top'" in line for line in warnings), warnings  # flat: found, not warned
+    # and, after the solve, the sag against the penetration (h = R/10: the chords' sag is ~20 × the penetration)
+    against = [line for line in warnings if "× the largest penetration" in line]
+    assert len(against) == 1 and float(against[0].split("smooth surface by up to ")[1].split(",")[0]) > 0
     shaped = run_cli([curved.write_problem(tmp_path, 2, meshes[2], True), "--refine", "none", "--out", tmp_path / "o2"])
     assert shaped.returncode == 0 and "is given no shape" not in shaped.stdout + shaped.stderr
+    assert "shaped by the facets" not in shaped.stdout + shaped.stderr
 
 
 def _stretched(source, target, a):

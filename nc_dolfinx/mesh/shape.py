@@ -290,6 +290,16 @@ def faceted_warning(domain, group_id, role):
             "or implicit) or the CAD file (mesh.cad); the column geometry_sag reports it")
 
 
+def faceted_sag(domain, group_ids):
+    """The largest level-0 sag of the visibly faceted groups among ``group_ids`` (0 if none): what a
+    solution's penetration is compared with (the contact zone's size is of the order of the sag there)."""
+    shapes = domain.shapes
+    if shapes is None:
+        return 0.0
+    return max([shapes.sag[i] for i in group_ids if i in shapes.sag and shapes.angle[i] > VISIBLE_ANGLE],
+               default=0.0)
+
+
 # --- after a refinement ----------------------------------------------------------------------------
 
 def snap(domain):
