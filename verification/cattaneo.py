@@ -204,7 +204,8 @@ def main(argv):
             rows.append([f"{x[i]:.4f}", f"{x[i] / m['a']:.3f}", f"{cmp['p'][i] / cmp['p0']:.4f}",
                          f"{cmp['hertz_p'][i] / cmp['p0']:.4f}", f"{cmp['s'][i] / (m['mu'] * cmp['p0']):.4f}",
                          f"{cmp['q'][i] / (m['mu'] * cmp['p0']):.4f}"])
-        table("1b. Traction on Γ_C (nodal, lumped projection), x ≥ 0, in units of p0 = 2P/(π a) and μ p0",
+        table("1b. Traction on Γ_C at the vertices (p: lumped projection; s_x: the law's), x ≥ 0, "
+              "in units of p0 = 2P/(π a) and μ p0",
               ["x", "x/a", "p/p0", "Hertz", "abs(s_x)/(μ p0)", "Cattaneo–Mindlin q/(μ p0)"], rows)
 
     # 2. the regularisation

@@ -15,17 +15,17 @@ tangential slip on Γ_C changes direction, so that Γ_C has a stick zone (2D: a 
 beside it; both laws hold exactly through the gap g_0 and a space-dependent bound c_t built from u (checked with sympy in
 `tests/test_friction_manufactured.py`, construction in `docs/src/manufactured_friction.md`). Uniform refinement from
 8×8 (2D) and 6³ (3D); the friction force against its exact value, the stick zone's measure against the exact 0.2991
-(2D). Last, `manufactured_friction_layer` and `manufactured_friction_layer3d`: the same plus a narrow smooth bump
+(2D: Σ ∫ φ_i over the vertices the law holds stuck, since issue 50 — within a vertex patch of the exact zone). Last, `manufactured_friction_layer` and `manufactured_friction_layer3d`: the same plus a narrow smooth bump
 inside the body (from 8×8 and 4³), where adaptive refinement must pay (`docs/src/manufactured_friction_layer.md`).
 """,
     "cattaneo": """Cattaneo–Mindlin partial slip (`docs/src/cattaneo.md`, `docs/src/cattaneo3d.md`): a half-disc (2D, the
 `hertz` mesh) and a half ball (3D, one symmetry plane) pressed by their clamped tops onto a nearly rigid foundation
 (c_n = 1e3 E) without friction, friction μ = 0.3 switched on in a step of its own, then the top moved sideways. P and Q
 are the top's normal reaction and the friction force; a is half the contact length (the radius of the half disc of
-the contact area), c the same for the stick zone. The differences from the half-space theory: the element size at
-the zone ends (within ±0.002 in c/a on meshes refined near the contact, 2D), the rigid base with ν = 0.3 (the
-normal–tangential coupling that Mindlin neglects: the sphere's stick zone shifts by 0.026 a), the penalty, the
-finite body.
+the contact area), c/a the stuck part of the friction law's contact zone (its vertices, weighted by ∫ φ_i: half a
+length, the square root of an area). The differences from the half-space theory: the element size at the zone ends
+(c/a within +0.0009 … +0.0055 of CM on meshes refined once or twice, 2D), the rigid base with ν = 0.3 (the
+normal–tangential coupling that Mindlin neglects), the penalty, the finite body.
 """,
 }
 
