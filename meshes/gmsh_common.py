@@ -55,7 +55,8 @@ def jitter_nodes(amplitude, seed=1):
                 gmsh.model.mesh.setNode(int(node), list(x), list(uv))
 
 
-def lower_ball(out, model, *, radius, x_min, symmetry_planes, z_contact, h_min, h_max, x_fine, growth, jitter):
+def lower_ball(out, model, *, radius, x_min, symmetry_planes, z_contact, h_min, h_max, x_fine, growth, jitter,
+               cad=None):
     """Write ``out``: the part x >= x_min, y >= 0, z <= radius of the ball of radius ``radius`` centred at
     (0, 0, radius), in two volumes split by the plane z = z_contact (group ``body``), its lowest point
     (0, 0, 0) a mesh vertex. Boundary groups, in this order: ``top`` (the flat face z = radius), one per
@@ -65,7 +66,8 @@ def lower_ball(out, model, *, radius, x_min, symmetry_planes, z_contact, h_min, 
     gmsh's OCC sphere has a pole on its axis, a vertex with a fan of thin triangles (and slivers under
     them); the sphere is therefore built with its axis along x, its poles (±radius, 0, radius) on the
     clamped edge or outside the part, far from the contact point. The size is h_min within x_fine of the
-    contact point, growing with slope ``growth`` up to h_max; ``jitter_nodes(jitter)`` before writing."""
+    contact point, growing with slope ``growth`` up to h_max; ``jitter_nodes(jitter)`` before writing.
+    ``cad``: also write the geometry there (a .brep: the CAD the mesh was made from, for mesh.cad)."""
     gmsh.initialize()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -100,5 +102,7 @@ def lower_ball(out, model, *, radius, x_min, symmetry_planes, z_contact, h_min, 
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
         generate_and_write(out, dim=3, before_writing=lambda: jitter_nodes(jitter))
+        if cad:
+            gmsh.write(str(cad))
     finally:
         gmsh.finalize()

@@ -22,10 +22,10 @@ X_C = 0.5 * R                                # the contact cap: within X_C of th
 Z_C = R - math.sqrt(R ** 2 - X_C ** 2)
 
 
-def write(out, h=R / 8):
-    """Write the quarter ball of size ``h`` to ``out`` (.msh)."""
+def write(out, h=R / 8, cad=None):
+    """Write the quarter ball of size ``h`` to ``out`` (.msh), and its CAD to ``cad`` (.brep) if given."""
     lower_ball(str(out), "quarterball", radius=R, x_min=0.0, symmetry_planes={"symm_x": 0, "symm_y": 1},
-               z_contact=Z_C, h_min=h, h_max=h, x_fine=0.0, growth=0.0, jitter=0.01 * h)
+               z_contact=Z_C, h_min=h, h_max=h, x_fine=0.0, growth=0.0, jitter=0.01 * h, cad=cad)
 
 
 if __name__ == "__main__":

@@ -103,3 +103,31 @@ def test_a_cad_file_that_cannot_serve_is_one_clear_line(msh_and_brep, tmp_path, 
     errors = [line for line in text.splitlines() if "error" in line]
     assert proc.returncode == 1 and "Traceback" not in text
     assert len(errors) == 1 and message in errors[0], text
+
+
+def test_a_quarter_ball_s_brep_refines_as_its_sphere(tmp_path):
+    """3D: the quarter ball (meshes/quarterball.py, h = R/8) with the BREP it was meshed from, no shape given:
+    after 2 adaptive levels the vertices of its spherical groups lie on the sphere — those on the symmetry
+    planes on the great circles — and the history is that of the sphere given analytically."""
+    import sys
+    import numpy as np
+    sys.path.insert(0, str(ROOT / "meshes"))
+    sys.path.insert(0, str(ROOT / "verification"))
+    import curved
+    import quarterball
+    quarterball.write(tmp_path / "ball.msh", cad=tmp_path / "ball.brep")
+    histories = {}
+    for name, shaped in (("cad", False), ("sphere", True)):
+        problem = curved.write_problem(tmp_path, 3, tmp_path / "ball.msh", shaped, name=f"{name}.toml")
+        if name == "cad":
+            problem.write_text(problem.read_text().replace("[mesh]\n", '[mesh]\ncad = "ball.brep"\n', 1))
+        proc = run_cli([problem, "--refine", "adaptive", "--levels", 3, "--out", tmp_path / name,
+                        "--write-every-level" if False else "--quiet"])
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        assert "is given no shape" not in proc.stdout + proc.stderr
+        histories[name] = json.loads((tmp_path / name / "history.json").read_text())
+    for cad, sphere in zip(histories["cad"], histories["sphere"]):
+        assert cad["dofs"] == sphere["dofs"]
+        for key in ("contact_resultant", "max_contact_pressure", "geometry_sag"):
+            assert cad[key] == pytest.approx(sphere[key], rel=1e-8, abs=1e-14), key
+    assert np.isfinite(histories["cad"][-1]["eta_geometry"])

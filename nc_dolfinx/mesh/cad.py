@@ -7,9 +7,11 @@ Two sources, one mechanism:
   which gmsh reads without running anything (a ``.geo`` script is refused).
 
 Which CAD entities hold a group is found geometrically, not by tags: the entities of the group's dimension
-on which its level-0 vertices lie (:func:`entities_under`). A :class:`CadSurface` then answers what
+that hold whole level-0 facets of it (:func:`entities_under`; a symmetry plane that meets a spherical cap
+along its rim holds none of the cap's facets). A :class:`CadSurface` then answers what
 :mod:`.surfaces` asks of a surface: φ(x) = (x − c(x))·n(c(x)) and ∇φ = n, with c(x) gmsh's closest point on
-the nearest of the group's entities and n its normal there — the signed distance to the tangent plane, so
+the nearest of the group's entities and n its normal there (from the closest points of nearby points) — the
+signed distance to the tangent plane, so
 that the projections of :func:`~nc_dolfinx.mesh.surfaces.project` land on the CAD. Each rank reads the CAD
 into a gmsh model of its own for each query (what it snaps is its own vertices).
 """
@@ -25,6 +27,7 @@ from .gmsh_io import gmsh_session, import_gmsh
 from .surfaces import Surface
 
 SUFFIXES = (".brep", ".step", ".stp", ".iges", ".igs")
+NORMAL_STEP = 1e-5  # × the coordinates' size: the offsets whose closest points give the normal
 
 
 class Cad:
@@ -85,16 +88,21 @@ def _current_model(gmsh):
         return None
 
 
-def entities_under(cad, points, dim, tolerance):
-    """The tags of the CAD entities of dimension ``dim`` within ``tolerance`` of some of ``points`` (n, 3),
-    and each point's distance from the nearest entity."""
-    if len(points) == 0:
-        return [], np.zeros(0)
+def entities_under(cad, facets, dim, tolerance):
+    """The tags of the CAD entities of dimension ``dim`` that hold a whole facet of ``facets`` (their vertices,
+    (n, k, 3): an entity that only meets the group along its rim, a symmetry plane say, holds none), and each
+    vertex's distance from the nearest of them (n, k)."""
+    if len(facets) == 0:
+        return [], np.zeros(facets.shape[:2])
+    points = facets.reshape(-1, 3)
     with cad.opened() as gmsh:
         tags = [tag for _, tag in gmsh.model.getEntities(dim)]
-        distances = np.array([_closest(gmsh, dim, tag, points)[1] for tag in tags])
-    near = [tag for tag, d in zip(tags, distances) if np.any(d <= tolerance)]
-    return near, distances.min(axis=0) if len(tags) else np.full(len(points), np.inf)
+        distances = np.array([_closest(gmsh, dim, tag, points)[1].reshape(facets.shape[:2]) for tag in tags])
+    holds = [bool(np.any(np.all(d <= tolerance, axis=1))) for d in distances]
+    near = [tag for tag, held in zip(tags, holds) if held]
+    if not near:
+        return [], np.full(facets.shape[:2], np.inf)
+    return near, distances[np.array(holds)].min(axis=0)
 
 
 def _closest(gmsh, dim, tag, points):
@@ -119,22 +127,33 @@ class CadSurface(Surface):
             points = np.zeros((len(x), 3))
             points[:, :x.shape[1]] = x
             with self.cad.opened() as gmsh:
-                found = [_closest(gmsh, self.dim, tag, points) for tag in self.tags]
-                nearest = np.argmin([d for _, d in found], axis=0)
-                closest = np.array([found[k][0][i] for i, k in enumerate(nearest)]).reshape(-1, 3)
-                normal = np.array([self._normal(gmsh, self.tags[k], c) for k, c in zip(nearest, closest)])
+                closest, normal = self._query(gmsh, points)
             self._last = (key, closest[:, :x.shape[1]], normal[:, :x.shape[1]])
         return self._last[1], self._last[2]
 
-    def _normal(self, gmsh, tag, point):
-        """The unit normal of entity ``tag`` at ``point`` (a surface's, or a 2D curve's tangent turned)."""
-        parameters = gmsh.model.getParametrization(self.dim, tag, point)  # (gmsh < 4.14: not from getClosestPoint)
-        if self.dim == 2:
-            n = np.asarray(gmsh.model.getNormal(tag, parameters))[:3]
-        else:
-            t = np.asarray(gmsh.model.getDerivative(self.dim, tag, parameters))[:3]
-            n = np.array([t[1], -t[0], 0.0])
-        return n / np.linalg.norm(n)
+    def _query(self, gmsh, points):
+        """The closest points on the nearest entity and the unit normals there. The normal comes from the
+        closest points of nearby points x ± δ e_i (their moves span the tangent space): gmsh's inverse surface
+        mapping (getParametrization, which getNormal needs) fails near a sphere's poles and seams."""
+        gdim = 3 if self.dim == 2 else 2
+        if len(points) == 0:
+            return points.copy(), points.copy()
+        delta = NORMAL_STEP * max(1.0, float(np.abs(points).max()))
+        found = [_closest(gmsh, self.dim, tag, points) for tag in self.tags]
+        nearest = np.argmin([d for _, d in found], axis=0)
+        pick = lambda candidates: np.stack([candidates[k][i] for i, k in enumerate(nearest)])  # noqa: E731
+        closest = pick([c for c, _ in found])
+        moves = []
+        for axis in range(gdim):  # central differences: the normal to O(δ² κ²)
+            ahead, behind = points.copy(), points.copy()
+            ahead[:, axis] += delta
+            behind[:, axis] -= delta
+            moves.append(pick([_closest(gmsh, self.dim, tag, ahead)[0] for tag in self.tags])
+                         - pick([_closest(gmsh, self.dim, tag, behind)[0] for tag in self.tags]))
+        moves = np.stack(moves, axis=1)[:, :, :gdim]  # (n, gdim, gdim): its rows span the tangent space
+        normal = np.zeros_like(points)
+        normal[:, :gdim] = np.linalg.svd(moves)[2][:, -1]  # the direction the moves do not take
+        return closest, normal
 
     def phi(self, x):
         closest, normal = self._closest_and_normal(x)

@@ -126,11 +126,11 @@ def _cad_of(domain, problem):
 
 
 def _cad_surface(domain, cad, group_id, facets, tolerance):
-    """The CAD entities under a group's level-0 vertices as its surface (None if the group has none there);
-    a vertex on no CAD entity is an error naming the group."""
+    """The CAD entities that hold whole level-0 facets of a group as its surface (None if there are none); a
+    vertex on none of them is an error naming the group."""
     from .cad import CadSurface, entities_under
     msh = domain.mesh
-    points = msh.geometry.x[np.unique(versions.entities_to_geometry(msh, msh.topology.dim - 1, facets))]
+    points = msh.geometry.x[versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)]  # (n, tdim, 3)
     tags, distance = entities_under(cad, points, msh.topology.dim - 1, tolerance)
     tags = sorted(set().union(*domain.comm.allgather(tags)))
     worst = domain.comm.allreduce(float(distance.max()) if len(distance) else 0.0, MPI.MAX)
