@@ -119,8 +119,8 @@ KEYS = [
         "expression φ of the coordinates and parameters, e.g. `\"x**2/4 + (y - 1)**2 - 1\"` (an ellipse); "
         "its gradient is derived (sympy)"),
     Key("mesh.cad", "string", "the CAD file `mesh.file` was meshed from (BREP, STEP or IGES, relative to the "
-        "problem file): each boundary group given no `shapes` entry takes the CAD surfaces its level-0 vertices "
-        "lie on as its true shape"),
+        "problem file): each curved boundary group given no `shapes` entry takes the CAD surfaces that hold its "
+        "level-0 facets as its true shape"),
     Key("mesh.shape_tolerance", "number", "how far a level-0 vertex may lie from its group's shape, relative "
         "to the body's size", 1e-6, check=_positive),
     # [material]
