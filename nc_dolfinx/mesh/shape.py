@@ -30,6 +30,7 @@ before the move for :func:`nc_dolfinx.mesh.refinement.transfer`.
 import logging
 from dataclasses import dataclass, field
 
+import dolfinx
 import numpy as np
 import ufl
 from mpi4py import MPI
@@ -340,20 +341,19 @@ def snap(domain):
 
 
 def _groups_around_nodes(domain, groups):
-    """For every local geometry node, whether a boundary facet of each group touches it (any rank's)."""
+    """For every local geometry node, whether a boundary facet of each group touches it (any rank's): counts
+    on the nodes' own index map, summed on their owners and sent back (no function space to build)."""
     msh = domain.mesh
-    V = versions.p1_space(msh, (len(groups),))
-    at_node = dof_of_node(V)
-    count = fem.Function(V)
-    values = count.x.array.reshape(-1, len(groups))
+    count = dolfinx.la.vector(msh.geometry.index_map(), len(groups))
+    values = count.array.reshape(-1, len(groups))
     tags = domain.facet_tags
     nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, tags.indices)
     column = np.searchsorted(groups, tags.values)
     for j in range(nodes.shape[1]):
-        np.add.at(values, (at_node[nodes[:, j]], column), 1.0)
-    count.x.scatter_reverse(versions.SCATTER_ADD)
-    count.x.scatter_forward()
-    return count.x.array.reshape(-1, len(groups))[at_node] > 0
+        np.add.at(values, (nodes[:, j], column), 1.0)
+    count.scatter_reverse(versions.SCATTER_ADD)
+    count.scatter_forward()
+    return values > 0
 
 
 def cell_quality(msh, x=None, cells=None):
