@@ -254,16 +254,19 @@ def test_a_creeping_warm_increment_goes_to_the_continuation(creeping_increments,
     """The last increment of a load path that extends the slip zone under a stiff foundation (the family's
     1e4-1-mu0.1, 64 cells): the passes at ε_r creep (their line search cuts step after step), and after
     friction_creeping_steps cut steps in a row the ε-continuation of the cold start takes over from there.
-    It ends at the same u_h as the passes alone (to 1e-9 of the largest displacement), with the
-    continuation's stages run (≥ 7 passes, against 2); the
-    same on 1, 2 and 3 ranks (nodal values to 1e-9). Since the law is evaluated at the vertices (issue 50)
-    the passes alone creep less (measured 19 Newton steps) and the continuation that takes over costs 27:
-    the takeover is asserted not to cost more than half again as much."""
+    It ends at the same u_h as the passes alone (to 1e-9 of the largest displacement), the same on 1, 2
+    and 3 ranks (nodal values to 1e-9). The path is asserted on one rank: the continuation's stages run
+    (≥ 7 passes, against 2), and since the law is evaluated at the vertices (issue 50) the passes alone
+    creep less (measured 19 Newton steps) and the continuation that takes over costs 27, so the takeover is
+    asserted not to cost more than half again as much. On 2 and 3 ranks the warm start's consistent Newton
+    steps sometimes converge at once (1 pass, 11–14 Newton steps, in 1 run of 3 or 4 here: the round-off
+    of the parallel sums decides it), and then nothing creeps."""
     result = creeping_increments[nprocs]
     scale = np.abs(result["passes_values"]).max()
     assert str(result["default_reason"]).startswith("CONVERGED") and str(result["passes_reason"]).startswith("CONVERGED")
     np.testing.assert_allclose(result["default_values"], result["passes_values"], atol=1e-9 * scale, rtol=0)
-    assert result["default_passes"] >= 7 > result["passes_passes"]
-    assert result["default_newton"] < 1.5 * result["passes_newton"]
     np.testing.assert_allclose(result["default_values"], creeping_increments[1]["default_values"],
                                atol=1e-9 * scale, rtol=0)
+    if nprocs == 1:
+        assert result["default_passes"] >= 7 > result["passes_passes"]
+        assert result["default_newton"] < 1.5 * result["passes_newton"]
