@@ -181,3 +181,21 @@ def test_the_benchmark_runs_at_a_tiny_size(tmp_path):
     assert {(r["body"], r["marking"]) for r in rows} == {(b, m) for b in ("half-disc", "quarter ball")
                                                          for m in ("uniform", "local")}
     assert all(r["cells"] > r["parent_cells"] and r["t_snap"] > 0 for r in rows)
+
+
+def test_a_frictional_load_path_refines_onto_the_circle_on_1_and_2_ranks(tmp_path):
+    """The built-in cattaneo (friction, a load path of three steps) refined adaptively after each step with
+    its circle: the slip history moves to snapped meshes, and 1 and 2 ranks give the same states."""
+    histories = {}
+    for nprocs in (1, 2):
+        out = tmp_path / f"out{nprocs}"
+        proc = run_cli(["cattaneo", "--refine", "adaptive", "--levels", "2", "--out", out, "--quiet"], nprocs)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        histories[nprocs] = history(out)
+    serial = histories[1]
+    assert serial[-1]["dofs"] > serial[0]["dofs"] and "is given no shape" not in proc.stdout + proc.stderr
+    assert serial[-1]["stick_length"] > 0 and serial[-1]["slip_length"] > 0
+    for s, p in zip(serial, histories[2]):
+        assert p["dofs"] == s["dofs"]
+        for key in ("friction_force", "stick_length", "slip_length", "contact_resultant", "eta_geometry"):
+            assert np.allclose(p[key], s[key], rtol=1e-7, atol=1e-12), (key, s["level"])
