@@ -159,3 +159,14 @@ def test_the_geometric_term_is_the_chord_s_sag_times_the_boundary_stress():
     delta = curve.distance(centres[:, :2])
     expected = np.sqrt(np.sum(delta * 1.0 * by_cell))  # |F| = 1
     assert est.totals["eta_geometry"] == pytest.approx(expected, rel=1e-10)
+
+
+@pytest.mark.parametrize("case", ["fichera", "corner"])
+def test_the_edges_of_a_flat_faced_group_are_not_curvature(case):
+    """A group of flat faces meeting at edges (the Fichera corner's 'free', the corner case's L): no level-0
+    sag, no warning, no geometric term — an unbalanced mean normal at an edge once read as a 60° curve."""
+    problem = nc.load_problem(case)
+    domain = nc.build_domain(problem, MPI.COMM_WORLD)
+    fields = nc.bind(problem, domain)
+    assert all(sag == 0.0 for sag in domain.shapes.sag.values()), domain.shapes.sag
+    assert not any("is given no shape" in text for text in fields.warnings)

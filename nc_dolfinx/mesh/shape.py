@@ -251,31 +251,39 @@ def _plane_of(domain, facets, scale):
 
 
 def _level0_sag(domain, facets):
-    """(sag, angle) of a faceted group: each facet's normal against the mean normal at its vertices
-    (the group's facets around each vertex, gathered across ranks) turns by an angle α; on a circle of
-    radius R with chords h, α = h/2R and the chord's sag is h²/8R = h α/4. Turns beyond CORNER_ANGLE are
-    edges of the body and are left out. The largest of each, the same on every rank."""
+    """(sag, angle) of a faceted group: each facet's normal against the mean normal at its vertices (the
+    group's facets around each vertex, gathered across ranks) turns by an angle α; on a circle of radius R
+    with chords h, α = h/2R and the chord's sag is h²/8R = h α/4. A vertex where some facet turns beyond
+    CORNER_ANGLE lies on an edge of the body (two faces of an L-shaped group, say) and is left out for all
+    its facets. The largest of each, the same on every rank."""
     msh = domain.mesh
-    gdim = msh.geometry.dim
-    V = versions.p1_space(msh, (gdim,))
-    at_node = dof_of_node(V)
-    summed = fem.Function(V)
+    gdim, k = msh.geometry.dim, msh.topology.dim
+    if not domain.comm.allreduce(len(facets), MPI.SUM):
+        return 0.0, 0.0
     normals = facet_normals(msh, facets) if len(facets) else np.zeros((0, gdim))
     nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, facets)
-    values = summed.x.array.reshape(-1, gdim)
-    for j in range(nodes.shape[1]):
-        np.add.at(values, at_node[nodes[:, j]], normals)
-    summed.x.scatter_reverse(versions.SCATTER_ADD)
-    summed.x.scatter_forward()
-    mean = summed.x.array.reshape(-1, gdim)[at_node[nodes]]  # (n, tdim, gdim)
+    mean = _sum_at_nodes(msh, nodes, np.repeat(normals[:, None], k, axis=1))[nodes]  # (n, k, gdim)
     mean /= np.maximum(np.linalg.norm(mean, axis=2), 1e-300)[..., None]
-    turn = np.arccos(np.clip(np.einsum("ng,nkg->nk", normals, mean), -1.0, 1.0)).max(axis=1) if len(facets) \
-        else np.zeros(0)
-    turn[turn > CORNER_ANGLE] = 0.0
+    turns = np.arccos(np.clip(np.einsum("ng,nkg->nk", normals, mean), -1.0, 1.0))  # (n, k)
+    on_edge = _sum_at_nodes(msh, nodes, (turns > CORNER_ANGLE)[..., None].astype(float))[nodes][..., 0] > 0
+    turn = np.where(on_edge, 0.0, turns).max(axis=1) if len(facets) else np.zeros(0)
     sizes = versions.diameters(msh, msh.topology.dim - 1, facets) if len(facets) else np.zeros(0)
     sag = float(np.max(sizes * turn / 4)) if len(facets) else 0.0
     angle = float(2 * turn.max()) if len(facets) else 0.0
     return domain.comm.allreduce(sag, MPI.MAX), domain.comm.allreduce(angle, MPI.MAX)
+
+
+def _sum_at_nodes(msh, nodes, values):
+    """Σ over the entities around each local geometry node of their ``values`` at it (``nodes`` (n, k) the
+    entities' nodes, ``values`` (n, k, bs)), summed over every rank's entities: (n_nodes, bs), ghosts too."""
+    bs = values.shape[2]
+    total = dolfinx.la.vector(msh.geometry.index_map(), bs)
+    array = total.array.reshape(-1, bs)
+    for j in range(nodes.shape[1]):
+        np.add.at(array, nodes[:, j], values[:, j])
+    total.scatter_reverse(versions.SCATTER_ADD)
+    total.scatter_forward()
+    return array
 
 
 def faceted_warning(domain, group_id, role):
@@ -341,19 +349,12 @@ def snap(domain):
 
 
 def _groups_around_nodes(domain, groups):
-    """For every local geometry node, whether a boundary facet of each group touches it (any rank's): counts
-    on the nodes' own index map, summed on their owners and sent back (no function space to build)."""
-    msh = domain.mesh
-    count = dolfinx.la.vector(msh.geometry.index_map(), len(groups))
-    values = count.array.reshape(-1, len(groups))
-    tags = domain.facet_tags
+    """For every local geometry node, whether a boundary facet of each group touches it (any rank's)."""
+    msh, tags = domain.mesh, domain.facet_tags
     nodes = versions.entities_to_geometry(msh, msh.topology.dim - 1, tags.indices)
-    column = np.searchsorted(groups, tags.values)
-    for j in range(nodes.shape[1]):
-        np.add.at(values, (nodes[:, j], column), 1.0)
-    count.scatter_reverse(versions.SCATTER_ADD)
-    count.scatter_forward()
-    return values > 0
+    member = np.zeros((len(tags.indices), len(groups)))
+    member[np.arange(len(tags.indices)), np.searchsorted(groups, tags.values)] = 1.0
+    return _sum_at_nodes(msh, nodes, np.repeat(member[:, None], nodes.shape[1], axis=1)) > 0
 
 
 def cell_quality(msh, x=None, cells=None):
