@@ -279,8 +279,8 @@ def _sum_at_nodes(msh, nodes, values):
     bs = values.shape[2]
     total = dolfinx.la.vector(msh.geometry.index_map(), bs)
     array = total.array.reshape(-1, bs)
-    for j in range(nodes.shape[1]):
-        np.add.at(array, nodes[:, j], values[:, j])
+    for c in range(bs):  # (np.bincount: an order of magnitude faster than np.add.at)
+        array[:, c] += np.bincount(nodes.ravel(), values[..., c].ravel(), minlength=len(array))
     total.scatter_reverse(versions.SCATTER_ADD)
     total.scatter_forward()
     return array
