@@ -193,7 +193,7 @@ class Result:
         return self.final.stop_reason
 
 
-def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on_level=None):
+def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on_level=None, **overrides):
     """Run SOLVE → ESTIMATE → MARK → REFINE: solve (7), evaluate the estimator of Definition 5, mark
     (:func:`mark`) and refine (:func:`refine`), each level starting Newton from the previous level's
     solution (nested iteration). Returns a :class:`Result`.
@@ -203,11 +203,14 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     increment; the mesh only grows along the path (a state moves to a refined mesh exactly, see
     :func:`refine`). History rows then carry the ``step``, its ``increment`` and the path's ``load_time``.
 
-    ``settings``: AdaptSettings (default: the problem's [adapt]); ``domain``: the level-0 mesh (default:
+    ``settings``: AdaptSettings (default: the problem's [adapt], with ``overrides`` such as ``levels=3,
+    refine="uniform"``: :meth:`AdaptSettings.from_problem`'s); ``domain``: the level-0 mesh (default:
     built from the problem's [mesh] on ``comm``, COMM_WORLD by default); ``on_level(level)`` is called
     after each level (before refinement). Progress goes to the ``nc_dolfinx`` logger (INFO, rank 0).
     """
-    settings = settings or AdaptSettings.from_problem(problem)
+    if settings is not None and overrides:
+        raise TypeError(f"adapt: give settings or {', '.join(sorted(overrides))}, not both")
+    settings = settings or AdaptSettings.from_problem(problem, **overrides)
     t0 = time.perf_counter()
     if domain is None:
         from .physics.binding import build_domain

@@ -164,3 +164,56 @@ def test_messages_quote_values_briefly():
     assert len(brief("a" * 10_000)) < 100 and "10002 characters" in brief("a" * 10_000)
     assert brief(10 ** 5000) == "<a int too large to show>"
     assert brief_text("x\0y") == "x\\x00y" and brief_text("x + y") == "x + y"
+
+
+# --- the leftovers of issue 48's fuzz and messages ----------------------------------------------------------
+
+@pytest.mark.parametrize("name, contents, expected", [
+    ("empty", "", "is empty: a problem needs at least [mesh]"),
+    ("blank", "  \n\t\n", "is empty: a problem needs at least [mesh]"),
+    ("deep", "a = " + "[" * 12 + "1" + "]" * 12 + "\n", "deeper than any key of a problem"),
+])
+def test_a_problem_file_with_nothing_or_too_much_in_it_is_named(tmp_path, name, contents, expected):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(contents)
+    result = cli([path, "--quiet"], cwd=tmp_path)
+    assert_bad_input(result, expected, tmp_path / "results")
+    assert f"{name}.toml" in result.stdout + result.stderr  # the file, named
+
+
+def test_a_subnormal_young_s_modulus_is_refused(tmp_path):
+    result = cli(["block", *FAST, "--set", "material.E=5e-324", "--out", tmp_path / "out"])
+    assert_bad_input(result, "material.E must be at least", tmp_path / "out")
+
+
+def test_a_tab_in_an_expression_is_whitespace(tmp_path):
+    result = cli(["block", *FAST, "--set", 'contact.c_n=" 1e3\\t"', "--out", tmp_path / "out"])
+    assert result.returncode == 0, result.stdout + result.stderr
+    rows = json.loads((tmp_path / "out" / "history.json").read_text())
+    assert rows[-1]["contact_resultant"] > 0  # c_n = 1e3 was read: the foundation carries load
+
+
+def test_a_negative_friction_coefficient_is_refused_with_its_value(tmp_path):
+    result = cli(["cattaneo", "--quiet", "--set", "parameters.mu=-0.3", "--out", tmp_path / "out"])
+    assert_bad_input(result, "contact.friction must be >= 0, got 'mu' = -0.3", tmp_path / "out")
+
+
+def test_command_line_options_given_as_overrides_say_what_an_override_is():
+    import nc_dolfinx as nc
+    with pytest.raises(InputError, match="'--refine' is a command-line option; an override is 'section.key=value'"):
+        nc.load_problem("block", ["--refine", "none"])
+
+
+def test_adapt_takes_the_settings_of_adapt_settings_by_name():
+    import nc_dolfinx as nc
+    problem = nc.load_problem("block", ["mesh.cells=[4,2]"])
+    assert len(nc.adapt(problem, levels=2, refine="uniform").history) == 2
+    with pytest.raises(TypeError, match="unknown adapt setting"):
+        nc.adapt(problem, levles=2)
+    with pytest.raises(TypeError, match="not both"):
+        nc.adapt(problem, nc.AdaptSettings.from_problem(problem), levels=2)
+
+
+def test_a_load_just_beyond_friction_shows_the_digits_that_exceed_one():
+    from nc_dolfinx.solver.settling import _beyond_one
+    assert [_beyond_one(r) for r in (1.001, 1.0000004, 1.02, 2.5)] == ["1.001", "1.0000004", "1.02", "2.5"]

@@ -50,6 +50,7 @@ _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
 _UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 
+_WHITESPACE = str.maketrans("\t\n\r\f\v", "     ")
 MAX_LENGTH = 20000  # characters of an expression
 MAX_DEPTH = 500     # nesting of its tree (a sum of n terms nests n deep): UFL and FFCx recurse over it
 
@@ -61,6 +62,7 @@ def _parse(text):
         raise InputError(f"malformed expression {brief(text)}: expected a string or a number")
     if len(text) > MAX_LENGTH:
         raise InputError(f"expression '{brief_text(text)}' is longer than {MAX_LENGTH} characters")
+    text = text.translate(_WHITESPACE)  # a tab or a line break is whitespace, as a space is
     if not text.isprintable():
         raise InputError(f"expression '{brief_text(text)}' contains a control character")
     try:

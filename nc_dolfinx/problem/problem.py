@@ -9,7 +9,7 @@ import copy
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, brief_path
 from . import schema
 from .cases import resolve
 from .expressions import to_float, uses_coordinates
@@ -45,7 +45,7 @@ class Problem:
         """Validate a problem table (the keys of a problem file) and return the Problem.
 
         Relative mesh files are taken relative to ``source`` (the problem file), if given."""
-        schema.check_depth(data)
+        schema.check_depth(data, source)
         raw = copy.deepcopy(data)
         values, given = schema.validate(raw)
         _check_consistency(values, given)
@@ -241,7 +241,9 @@ def _check_friction(contact, given, parameters):
         value = contact[key]
         if value is not None and not (isinstance(value, str) and uses_coordinates(value)) \
                 and to_float(value, parameters) < 0:
-            raise InputError(f"contact.{key} must be >= 0, got {value}")
+            shown = value if not isinstance(value, str) or value.strip() == f"{to_float(value, parameters):g}" \
+                else f"'{value}' = {to_float(value, parameters):g}"
+            raise InputError(f"contact.{key} must be >= 0, got {shown}")
 
 
 def is_frictional(contact, given):
@@ -305,5 +307,9 @@ def load_problem(source, overrides=(), name=None):
     >>> problem = load_problem("block", ["contact.m_n=2"])
     """
     path = resolve(source)
-    data = apply_overrides(read_toml(path), overrides)
+    data = read_toml(path)
+    if not data:
+        raise InputError(f"problem file '{brief_path(path)}' is empty: a problem needs at least [mesh] (with "
+                         "contact), [material] and [contact]")
+    data = apply_overrides(data, overrides)
     return Problem.from_dict(data, name or path.stem, source=path, overrides=tuple(overrides))

@@ -37,6 +37,9 @@ def apply_overrides(data, overrides):
     """Apply ``section.key=value`` overrides (the ``--set`` option) to a raw problem table."""
     for item in overrides or []:
         key, sep, value = item.partition("=")
+        if item.startswith("-"):  # e.g. ["--refine", "none"]: the command line's options are not overrides
+            raise InputError(f"'{brief_text(item)}' is a command-line option; an override is 'section.key=value' "
+                             "(e.g. 'adapt.refine=none'; through the API also adapt(problem, refine='none'))")
         if not sep or not key.strip():
             raise InputError(f"--set expects KEY=VALUE, got '{brief_text(item)}'")
         if "." not in key.strip() and key.strip() not in ("title", "description", "steps"):

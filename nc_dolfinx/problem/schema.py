@@ -11,9 +11,10 @@ table, parameters, PETSc options).
 """
 import difflib
 import math
+import sys
 from dataclasses import dataclass
 
-from ..errors import InputError, brief, brief_text
+from ..errors import InputError, brief, brief_path, brief_text
 from . import expressions
 
 REQUIRED = object()  # the default of a required key
@@ -35,7 +36,11 @@ class Key:
 
 
 def _positive(v):
-    return None if v > 0 else "must be > 0"
+    if not v > 0:
+        return "must be > 0"
+    if v < sys.float_info.min:  # a subnormal: it has lost its digits (E = 5e-324 ended in MUMPS's INFOG(1) = -3)
+        return f"must be at least {sys.float_info.min:.3g} (a normal double; this one is subnormal)"
+    return None
 
 
 def _at_least_one(v):
@@ -477,15 +482,16 @@ def _sets_so_far(steps):
 MAX_DEPTH = 8  # tables and arrays within one another: the deepest key, material.regions.NAME.E, is 4
 
 
-def check_depth(data):
+def check_depth(data, source=None):
     """Refuse a problem table nested deeper than any key of the schema (TOML's dotted keys and headers
     nest without limit), found without recursion: copying or validating it would recurse that deep."""
     stack = [(data, ())]
     while stack:
         value, path = stack.pop()
         if len(path) > MAX_DEPTH:
-            raise InputError(f"'{brief_text('.'.join(path[:MAX_DEPTH + 1]))}…' is nested more than {MAX_DEPTH} "
-                             "tables or arrays deep: no key of a problem is")
+            where = f"problem file '{brief_path(source)}': " if source else ""
+            raise InputError(f"{where}'{brief_text('.'.join(path[:MAX_DEPTH + 1]))}…' is nested more than {MAX_DEPTH} "
+                             "tables or arrays deep, deeper than any key of a problem")
         items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
         stack.extend((child, (*path, str(key))) for key, child in items)
 

@@ -106,8 +106,14 @@ def _check_friction_limit(along, key):
     capacity = along.u.function_space.mesh.comm.bcast(capacity, root=0)  # one decision on every rank
     if capacity < 1.0:
         names = ", ".join(rigid.describe_all(rigid.readable(along.free @ witness[:, None]), along.centre, along.scale))
-        raise InputError(f"the body is free to move: {names}; the loads pull it along the foundation with {1 / capacity:.3g} "
+        raise InputError(f"the body is free to move: {names}; the loads pull it along the foundation with {_beyond_one(1 / capacity)} "
                          f"times the most its friction holds ({key} times the pressure): {HOLD}")
+
+
+def _beyond_one(ratio):
+    """A ratio above 1 with the digits that show it is above 1 (1.001, not 1)."""
+    digits = 3 if ratio >= 1.01 else 2 + int(np.ceil(-np.log10(ratio - 1))) if ratio > 1 else 3
+    return f"{ratio:.{min(digits, 12)}g}"
 
 
 def _simplex(n, base):
