@@ -20,7 +20,7 @@ from dolfinx import fem
 
 from . import dolfinx_versions as versions
 from .estimator import indicators, marking
-from .mesh import refinement
+from .mesh import refinement, shape
 from .mesh.balance import imbalance
 from .physics import forms, quantities, slip_state
 from .physics.binding import bind
@@ -249,6 +249,9 @@ class _Loop:
             self.times["estimate"] = time.perf_counter() - t
             eta0 = est.totals["eta"] if eta0 is None else eta0
             row = _row(number, domain, solution, est)
+            if number == 0:
+                solution.fields.warnings += shape.faceted_contact_warnings(domain, solution.fields.ids["contact"],
+                                                                          row.get("max_penetration", 0.0))
             if state.step:
                 row.update(step=state.step, increment=state.increment, load_time=state.time)
             stop = _stop_reason(self.settings, number_in_step, row["dofs"], est.totals["eta"], eta0) \

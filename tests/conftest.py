@@ -12,6 +12,23 @@ PYTHON = "/usr/bin/python3"
 sys.path.insert(0, str(ROOT))
 
 
+def import_script(folder, name):
+    """The module ``name`` of the project's folder ``folder`` (verification/, benchmarks/, meshes/), imported
+    with that folder's own helpers: verification/ and benchmarks/ each have a ``common`` module, and a test
+    process that imported one must not hand it to the other's scripts. sys.path and sys.modules["common"]
+    are as they were afterwards (the module keeps the names it imported)."""
+    import importlib
+    saved_path, saved_common = list(sys.path), sys.modules.pop("common", None)
+    sys.path.insert(0, str(ROOT / folder))
+    try:
+        return importlib.import_module(name)
+    finally:
+        sys.path[:] = saved_path
+        sys.modules.pop("common", None)
+        if saved_common is not None:
+            sys.modules["common"] = saved_common
+
+
 def mpirun_prefix(nprocs):
     if nprocs == 1:
         return []

@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from conftest import PYTHON, ROOT, run
+from conftest import PYTHON, ROOT, import_script, run
 
 BENCH = ROOT / "benchmarks" / "run.py"
 RTOL = 1e-8
@@ -31,9 +31,8 @@ def smoke(tmp_path_factory):
 
 def test_table_has_the_expected_columns(smoke):
     stdout, rows, _ = smoke
-    import sys
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    from run import COLUMNS, TABLES
+    run_script = import_script("benchmarks", "run")
+    COLUMNS, TABLES = run_script.COLUMNS, run_script.TABLES
     assert {r["problem"] for r in rows} == {"block", "corner"}
     optional = {"parallel_speedup"} | ({"t_legacy", "legacy_newton", "legacy_krylov", "speedup_legacy",
                                         "legacy_energy_rdiff", "legacy_force_rdiff"}

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from conftest import ROOT, run, run_cli
+from conftest import ROOT, import_script, run, run_cli
 
 LEVELS = 4
 
@@ -109,12 +109,8 @@ def test_a_quarter_ball_s_brep_refines_as_its_sphere(tmp_path):
     """3D: the quarter ball (meshes/quarterball.py, h = R/8) with the BREP it was meshed from, no shape given:
     after 2 adaptive levels the vertices of its spherical groups lie on the sphere — those on the symmetry
     planes on the great circles — and the history is that of the sphere given analytically."""
-    import sys
     import numpy as np
-    sys.path.insert(0, str(ROOT / "meshes"))
-    sys.path.insert(0, str(ROOT / "verification"))
-    import curved
-    import quarterball
+    curved, quarterball = import_script("verification", "curved"), import_script("meshes", "quarterball")
     quarterball.write(tmp_path / "ball.msh", cad=tmp_path / "ball.brep")
     histories = {}
     for name, shaped in (("cad", False), ("sphere", True)):

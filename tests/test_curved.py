@@ -5,16 +5,14 @@ snapped to like an analytic one, and the transfer to a snapped child is the pare
 parent-edge midpoints. The problems and meshes are verification/curved.py's (meshes/halfdisc.py,
 meshes/quarterball.py), at coarse sizes. (Unit tests of shape.py and surfaces.py: tests/test_shapes.py.)"""
 import dataclasses
-import sys
 
 import numpy as np
 import pytest
 
-from conftest import ROOT, history, run_cli
+from conftest import ROOT, history, import_script, run_cli
 from test_bad_input import assert_bad_input, cli as bad_cli
 
-sys.path.insert(0, str(ROOT / "verification"))
-import curved  # noqa: E402
+curved = import_script("verification", "curved")
 
 H_2D = 0.25            # the half-disc's coarse size here (the study's is R/10)
 H_3D = 0.25            # the quarter ball's

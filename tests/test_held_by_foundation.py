@@ -140,7 +140,8 @@ def test_loads_beyond_friction_are_named_before_newton():
                               "foundation with ")
     assert "times the most its friction holds (contact.friction times the pressure)" in message
     ratio = float(message.split(" with ")[1].split()[0])
-    assert ratio == pytest.approx(shear / (MU * P * 1.0), rel=5e-3)  # base length 1
+    # the law's bound at the vertices, Σ m_i μ c_n (u·N − g̃_0)_+(x_i), lumps the settled pressure: μP to 1 %
+    assert ratio == pytest.approx(shear / (MU * P * 1.0), rel=1e-2)  # base length 1
 
 
 def grid_minimum(along):
@@ -162,12 +163,12 @@ def grid_minimum(along):
     return best
 
 
-@pytest.mark.parametrize("shear, twist", [(2.9, 1.0), (0.3, 8.5), (0.0, 9.0), (3.1, 0.0), (1.0, 6.0)])
+@pytest.mark.parametrize("shear, twist", [(2.9, 1.0), (0.3, 9.5), (0.0, 9.0), (3.1, 0.0), (1.0, 6.0)])
 def test_the_friction_limit_in_3d_is_the_grid_s(monkeypatch, shear, twist):
     """3D: the limit along the three sliding motions (x, y, the rotation about z) is found by Nelder–Mead
     over two amplitudes. Against a brute-force grid (grid_minimum): the same decision and the same ratio to
-    the printed digits, also 0.2 % beyond the limit with shear and twist together (measured on 16 loads:
-    2.9 + 1.0: 0.976, held; 0.3 + 8.5: 1.002, refused with 1.0)."""
+    the printed digits, also 0.13 % beyond the limit with shear and twist together (0.3 + 9.5: 1.0013 with the
+    law's bound at the vertices, issue 50; 0.3 + 8.5 was 1.002 with the Gauss-point bound)."""
     from nc_dolfinx.solver import settling
     seen, check = {}, settling._check_friction_limit
 
@@ -190,14 +191,15 @@ def test_the_friction_limit_in_3d_is_the_grid_s(monkeypatch, shear, twist):
 
 
 def test_a_load_beyond_friction_that_the_check_missed_ends_in_one_clear_error(monkeypatch):
-    """Were the limit check to miss a load beyond friction (0.3 + 8.5 above: 1.002 times the limit), Newton
-    runs, fails, and the fallbacks end in one clear error. The stronger_pc fallback switches CG to GMRES;
+    """Were the limit check to miss a load beyond friction (0.3 + 9.6: 1.01 times the limit; at 1.0013 the
+    final pressure still held it), Newton runs, fails, and the fallbacks end in one clear error. The
+    stronger_pc fallback switches CG to GMRES;
     after the friction solver's consistent steps had set the preconditioning side explicitly, that ended in
     PETSc's error 56 (GMRES has no unpreconditioned norm with a left preconditioner) on every 3D friction
     run that reached it."""
     from nc_dolfinx.solver import settling
     monkeypatch.setattr(settling, "_check_friction_limit", lambda along, key: None)
-    problem = block(3, shear=0.3, twist=8.5)
+    problem = block(3, shear=0.3, twist=9.6)
     with pytest.raises(InputError) as err:
         nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
     assert str(err.value).startswith("SNES diverged") and "stronger_pc" in str(err.value)

@@ -16,13 +16,11 @@ from mpi4py import MPI
 import nc_dolfinx as nc
 
 from ..errors import InputError
-from ..mesh import shape
 from ..output import columns, files, postprocess, provenance, vtu
 from ..solver import petsc_options
 from . import interrupt
 
 DOUBTFUL_FRACTION = 0.1  # penetration or |u| beyond this part of the body's diameter: warn
-FACETED_FRACTION = 0.1  # a faceted Γ_C whose sag is beyond this part of the penetration: warn
 
 
 class CaseRun:
@@ -92,20 +90,6 @@ class CaseRun:
         self.diameter = body_diameter(level.u.function_space.mesh)
         for text in level.fields.warnings:
             self.warn(text)
-        self.check_facets(level)
-
-    def check_facets(self, level):
-        """A faceted Γ_C whose level-0 sag is not small beside the penetration: its facets, not the body's
-        shape, decide the contact zone (the warning of :func:`~nc_dolfinx.mesh.shape.faceted_warning` says how
-        to give the shape)."""
-        sag = shape.faceted_sag(level.fields.domain, level.fields.ids["contact"])
-        depth = level.row.get("max_penetration", 0.0)
-        if sag > FACETED_FRACTION * depth:
-            against = f"{sag / depth:.2g} × the largest penetration ({depth:.3g})" if depth > 0 else \
-                "and nothing penetrates"
-            self.warn(f"the level-0 facets of Γ_C depart from a smooth surface by up to {sag:.3g}, {against}: the "
-                      "contact zone is shaped by the facets, not by the body (give the shape: [mesh.shapes] or "
-                      "mesh.cad)")
 
     def check_doubtful(self, number, row):
         limit = DOUBTFUL_FRACTION * self.diameter

@@ -49,6 +49,7 @@ FLAT_TOLERANCE = 1e-10    # × the body's size: a group whose level-0 facets are
 ON_SURFACE = 1e-12        # × the body's size: a vertex this close to its surfaces is not moved
 CORNER_ANGLE = np.radians(30)  # a normal turning more than this at a vertex is an edge of the body, not a curve
 VISIBLE_ANGLE = np.radians(0.5)  # a faceted group whose normals turn more than this gets a warning
+FACETED_FRACTION = 0.1    # ... and a second one after level 0 where its sag exceeds this part of the penetration
 QUALITY_KEPT = 0.5        # a snapped cell keeping less than this of its quality moves the interior too
 QUALITY_FLOOR = 0.05      # ... and after that, less than this is an error
 
@@ -299,14 +300,19 @@ def faceted_warning(domain, group_id, role):
             "or implicit) or the CAD file (mesh.cad); the column geometry_sag reports it")
 
 
-def faceted_sag(domain, group_ids):
-    """The largest level-0 sag of the visibly faceted groups among ``group_ids`` (0 if none): what a
-    solution's penetration is compared with (the contact zone's size is of the order of the sag there)."""
+def faceted_contact_warnings(domain, contact_ids, penetration):
+    """After level 0: a warning if a visibly faceted Γ_C group sags by more than FACETED_FRACTION of the
+    largest penetration — its facets, not the body, then shape the contact zone (:func:`faceted_warning`
+    says how to give the shape). A list of 0 or 1 text."""
     shapes = domain.shapes
-    if shapes is None:
-        return 0.0
-    return max([shapes.sag[i] for i in group_ids if i in shapes.sag and shapes.angle[i] > VISIBLE_ANGLE],
-               default=0.0)
+    sag = 0.0 if shapes is None else max(
+        [shapes.sag[i] for i in contact_ids if i in shapes.sag and shapes.angle[i] > VISIBLE_ANGLE], default=0.0)
+    if sag == 0.0 or sag <= FACETED_FRACTION * penetration:
+        return []
+    against = f"{sag / penetration:.2g} × the largest penetration ({penetration:.3g})" if penetration > 0 else \
+        "and nothing penetrates"
+    return [f"the level-0 facets of Γ_C depart from a smooth surface by up to {sag:.3g}, {against}: the contact "
+            "zone is shaped by the facets, not by the body (give the shape: [mesh.shapes] or mesh.cad)"]
 
 
 # --- after a refinement ----------------------------------------------------------------------------

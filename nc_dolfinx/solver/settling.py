@@ -153,10 +153,11 @@ class _Motions:
         self.hessian_action = fem.form(ufl.action(pieces.j_n_jacobian, self.direction))
         self.mass_action = fem.form(ufl.action(pieces.c_n_mass, self.direction))
         self.load = load_factor * self._along(fem.form(pieces.L))
-        if fields.friction is not None:  # [∫_Γ_C w ρ_j,t·ρ_k,t] for w = 1, (u_n − g_0)_+ and F
-            law, v, dC = fields.friction, ufl.TestFunction(V), nc_forms.contact_measure(fields)
+        if fields.friction is not None:  # [∫_Γ_C w ρ_j,t·ρ_k,t] for w = 1, (u·N − g̃_0)_+ and F
+            # where and as the law is evaluated (the vertices of Γ_C): the limit checked is the law's own
+            law, v, dC = fields.friction, ufl.TestFunction(V), nc_forms.law_measure(fields)
             slide = ufl.dot(friction.tangential(self.direction, law.normal), friction.tangential(v, law.normal))
-            pressed = nc_forms.penetration(u, fields)
+            pressed = nc_forms.law_penetration(u, fields, law.normal)
             self.tangent_action, self.pressed_action, self.friction_action = (
                 fem.form(weight * slide * dC) for weight in (1.0, pressed, friction.friction_bound(pressed, law)))
             sliding = friction.tangential(self.direction, law.normal)
