@@ -437,7 +437,8 @@ def hostile_expressions(draw, coordinates=True, max_terms=30000):
         ("nul-byte", f"{v}\x00+1", "error"),
         ("control-character", f"{v}{draw(st.sampled_from(chr(1) + chr(7) + chr(8) + chr(27) + chr(127)))}+1",
          "error"),
-        ("newline", f"{v}\n+1", "error"),
+        ("newline", f"{v}\n+1", "either"),  # whitespace, as a space is (issue 48): "1 +1"
+        ("tab", f"{v}\t+1", "either"),
         ("newline-in-parentheses", f"({v}\n+1)", "either"),
         ("zero-width-space", f"{v}\u200b+1", "error"),
         ("injection", INJECTION, "error"),
