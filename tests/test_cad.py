@@ -117,8 +117,7 @@ def test_a_quarter_ball_s_brep_refines_as_its_sphere(tmp_path):
         problem = curved.write_problem(tmp_path, 3, tmp_path / "ball.msh", shaped, name=f"{name}.toml")
         if name == "cad":
             problem.write_text(problem.read_text().replace("[mesh]\n", '[mesh]\ncad = "ball.brep"\n', 1))
-        proc = run_cli([problem, "--refine", "adaptive", "--levels", 3, "--out", tmp_path / name,
-                        "--write-every-level" if False else "--quiet"])
+        proc = run_cli([problem, "--refine", "adaptive", "--levels", 3, "--out", tmp_path / name, "--quiet"])
         assert proc.returncode == 0, proc.stdout + proc.stderr
         assert "is given no shape" not in proc.stdout + proc.stderr
         histories[name] = json.loads((tmp_path / name / "history.json").read_text())

@@ -27,7 +27,6 @@ of a parent edge), so the values carried to it (the displacement, the friction l
 the midpoint — the reference-cell transfer of deal.II's manifolds; :func:`snap` returns the coordinates
 before the move for :func:`nc_dolfinx.mesh.refinement.transfer`.
 """
-import logging
 from dataclasses import dataclass, field
 
 import dolfinx
@@ -42,7 +41,6 @@ from ..errors import InputError, brief_text
 from .domain import UNTAGGED, cells_of_facets, dof_of_node, global_bounds
 from .surfaces import Cylinder, Implicit, Plane, Sphere, project
 
-log = logging.getLogger("nc_dolfinx")
 
 KINDS = ("plane", "circle", "sphere", "cylinder", "implicit")
 FLAT_TOLERANCE = 1e-10    # × the body's size: a group whose level-0 facets are this close to one plane is flat
