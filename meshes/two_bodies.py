@@ -15,8 +15,8 @@ What each mesh is for:
     come through the interface uniform.
 ``mirrored``
     The symmetry identity (issue 47, item 6): any one-body mesh ("upper") with its exact mirror image in the
-    plane y = axis_value ("lower"), nodes mirrored bitwise. Two mirror bodies pressed together equal one body
-    on the foundation y = axis_value with c_n' = 2^m c_n, g_0' = g_0 / 2.
+    plane y = axis_value, in 3D z = axis_value ("lower"), nodes mirrored bitwise. Two mirror bodies pressed
+    together equal one body on the foundation there with c_n' = 2^m c_n, g_0' = g_0 / 2.
 ``two_cylinders_2d``
     2D Hertz and Cattaneo-Mindlin between two cylinders (plane strain): two half-discs touching at the
     origin, graded there, with different chord lengths on the two contact arcs.
@@ -31,8 +31,8 @@ their planes, and on their curves and surfaces up to round-off) so that no two e
 long: DOLFINx's Plaza refinement then refines alike on any number of ranks (gmsh_common.jitter_nodes).
 
 Run: ``/usr/bin/python3 meshes/two_bodies.py NAME OUT.msh [--h H] [...]``, NAME one of stacked_blocks_2d,
-stacked_blocks_3d, two_cylinders_2d, sphere_on_block_3d, mirrored (``--input IN.msh [--axis-value A]``);
-``--help`` lists the options. Python: ``import two_bodies; two_bodies.stacked_blocks_2d("out.msh")``.
+stacked_blocks_3d, two_cylinders_2d, sphere_on_block_3d, mirrored (with ``--input IN.msh [--axis-value A]
+[--axis x|y|z]``); ``--help`` lists the options. Python: ``import two_bodies; two_bodies.stacked_blocks_2d("out.msh")``.
 """
 import argparse
 import math
@@ -275,21 +275,22 @@ def _stacked_blocks(path, tdim, h_lower, h_upper, jitter):
 
 # --- 2. a body and its mirror image ----------------------------------------------------------------
 
-def mirrored(path_in, path_out, axis_value=0.0, binary=None):
+def mirrored(path_in, path_out, axis_value=0.0, binary=None, axis=None):
     """Write to ``path_out`` the one-body mesh ``path_in`` (2D or 3D .msh with physical groups) and its
-    mirror image in the plane y = axis_value, as two bodies.
+    mirror image in the plane y = axis_value in 2D, z = axis_value in 3D (the foundation's normal axis;
+    ``axis`` 0, 1 or 2 picks another), as two bodies.
 
     The input's cells (all its cell groups) become cell group ``upper``, their mirror images ``lower``;
     every facet group NAME of the input becomes ``upper_NAME`` and ``lower_NAME``. Node i of the input keeps
     its coordinates (tag i after renumbering 1..N); its mirror, tag N + i, has y' = 2 * axis_value - y
-    computed in float64 (x, z unchanged): bitwise, as read back. Mirrored cells and facets list their nodes
-    with the first two swapped, so that every cell keeps a positive orientation. The outward normal of a
-    mirrored facet is the mirror image of the original's.
+    (z' in 3D) computed in float64, the other coordinates unchanged: bitwise, as read back. Mirrored cells
+    and facets list their nodes with the first two swapped, so that every cell keeps the sign of its
+    orientation. The outward normal of a mirrored facet is the mirror image of the original's.
 
-    ``binary``: None writes ASCII msh 4.1 when that is read back bitwise (it is for axis_value = 0, or for
-    an input written by gmsh in ASCII, as y and -y print alike), else binary msh 4.1 (exact); True/False
-    forces it. Returns (number of nodes per body, whether the file is binary). The mirror is checked by
-    reading the file back; a mismatch raises."""
+    ``binary``: None writes ASCII msh 4.1 when that reads back bitwise (it does for axis_value = 0 and an
+    input that gmsh wrote in ASCII: y and -y print alike), else binary msh 4.1 (exact); True/False forces
+    it. Returns (number of nodes per body, whether the file is binary). The mirror is checked by reading the
+    file back; a mismatch raises."""
     _start("mirrored_input")
     try:
         gmsh.open(str(path_in))
@@ -317,8 +318,9 @@ def mirrored(path_in, path_out, axis_value=0.0, binary=None):
     if not any(dim == tdim for dim, _ in groups):
         raise ValueError(f"{path_in} has no cell group")
     n = len(x)
+    axis = tdim - 1 if axis is None else axis
     x_mirror = x.copy()
-    x_mirror[:, 1] = 2.0 * axis_value - x[:, 1]
+    x_mirror[:, axis] = 2.0 * axis_value - x[:, axis]
     if binary is None:
         binary = not _prints_alike(x, x_mirror)
     _start("mirrored")
@@ -355,7 +357,8 @@ def mirrored(path_in, path_out, axis_value=0.0, binary=None):
     finally:
         gmsh.finalize()
     _check_mirror(path_out, x, x_mirror)
-    print(f"wrote {path_out}: {n} nodes per body, {'binary' if binary else 'ASCII'}, mirror plane y = {axis_value}")
+    kind = "binary" if binary else "ASCII"
+    print(f"wrote {path_out}: {n} nodes per body, {kind}, mirror plane {'xyz'[axis]} = {axis_value}")
     return n, bool(binary)
 
 
@@ -413,12 +416,19 @@ def two_cylinders_2d(path, R1=1.0, R2=1.0, h=None, h_contact=None, lower_ratio=0
     Sizes: h (default min(R1, R2)/8) far away, h_contact (default min(R1, R2)/100) on the upper body near the
     origin, lower_ratio x h_contact on the lower one (different chords: non-matching), within
     x_fine x min(R1, R2) of the origin along the contact arcs, growing with slope ``growth`` (as
-    meshes/hertz.py). Then jittered (``jitter`` x the smallest size; arc nodes projected back on the circle)."""
+    meshes/hertz.py). Then jittered (``jitter`` x the smallest size; arc nodes projected back on the circle).
+
+    Returns the smallest distance in x between a node of one contact arc and one of the other within
+    x_fine x min(R1, R2) of the origin, the origin aside (before the jitter). The two arcs' nodes never
+    coincide, but as both start at the origin with nearly uniform chords, some come within a few per cent
+    of h_contact of each other in x (0.03 h_contact at the defaults): a non-matching interface, not a
+    staggered one."""
     r_min = min(R1, R2)
     h = r_min / 8 if h is None else h
     h_contact = r_min / 100 if h_contact is None else h_contact
     _start("two_cylinders_2d")
     try:
+        gmsh.option.setNumber("Geometry.AutoCoherence", 0)  # the two points at the origin stay two
         geo = gmsh.model.geo
         up = _half_disc(geo, R1, R1, +1)
         low = _half_disc(geo, -R2, R2, -1)
@@ -446,13 +456,27 @@ def two_cylinders_2d(path, R1=1.0, R2=1.0, h=None, h_contact=None, lower_ratio=0
                   "lower_bottom": [low[1]], "lower_contact": low[2], "lower_free": low[3]}
         _name_groups(cells, facets, 2)
 
+        separation = []
+
         def finish():
+            separation.append(_arc_separation(up, low, x_fine * r_min))
             _jitter_and_snap(jitter * h_contact * min(lower_ratio, 1.0),
                              {0: [0.0], 1: [R1, -R2, 0.0]}, 2)
             _report(path, 2, cells)
         generate_and_write(path, dim=2, before_writing=finish)
     finally:
         gmsh.finalize()
+    return separation[0]
+
+
+def _arc_separation(up, low, x_fine):
+    """The smallest distance in x between a node of the upper contact arc and one of the lower contact arc
+    within x_fine of the origin (the origin, a node of both, aside)."""
+    def arc_x(curves):
+        nodes = np.concatenate([gmsh.model.mesh.getNodes(1, c, includeBoundary=True)[1] for c in curves])
+        x = np.reshape(nodes, (-1, 3))[:, 0]
+        return x[(x != 0) & (np.abs(x) < x_fine)]
+    return _separation(arc_x(up[2]), arc_x(low[2]))
 
 
 def _restrict_to(field_tag, surface, curves):
@@ -555,7 +579,9 @@ def main(argv=None):
     parser.add_argument("--R2", type=float, default=1.0, help="two_cylinders_2d: the lower radius")
     parser.add_argument("--R", type=float, default=1.0, help="sphere_on_block_3d: the ball's radius")
     parser.add_argument("--input", help="mirrored: the one-body .msh")
-    parser.add_argument("--axis-value", type=float, default=0.0, help="mirrored: the mirror plane y = A")
+    parser.add_argument("--axis-value", type=float, default=0.0,
+                        help="mirrored: the mirror plane y = A in 2D, z = A in 3D (or --axis = A)")
+    parser.add_argument("--axis", choices=["x", "y", "z"], help="mirrored: the mirror plane's normal axis")
     parser.add_argument("--jitter", type=float, default=0.01, help="node jitter, times the smallest size")
     args = parser.parse_args(argv)
     if args.name == "stacked_blocks_2d":
@@ -565,7 +591,7 @@ def main(argv=None):
     elif args.name == "mirrored":
         if not args.input:
             parser.error("mirrored needs --input IN.msh")
-        mirrored(args.input, args.out, args.axis_value)
+        mirrored(args.input, args.out, args.axis_value, axis=None if args.axis is None else "xyz".index(args.axis))
     elif args.name == "two_cylinders_2d":
         two_cylinders_2d(args.out, args.R1, args.R2, args.h, args.h_contact, jitter=args.jitter)
     else:

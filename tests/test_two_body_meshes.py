@@ -164,10 +164,10 @@ def test_stacked_blocks_3d(folder):
 
 # --- mirrored ---------------------------------------------------------------------------------------
 
-def check_mirror(mesh, axis_value):
-    """The lower body's nodes are the upper's with y -> 2 axis_value - y (in float64), bitwise."""
+def check_mirror(mesh, axis_value, axis=1):
+    """The lower body's nodes are the upper's with x_axis -> 2 axis_value - x_axis (in float64), bitwise."""
     upper, lower = mesh.body_nodes("upper").copy(), mesh.body_nodes("lower")
-    upper[:, 1] = 2.0 * axis_value - upper[:, 1]
+    upper[:, axis] = 2.0 * axis_value - upper[:, axis]
     np.testing.assert_array_equal(upper[np.lexsort(upper.T[::-1])], lower[np.lexsort(lower.T[::-1])])
 
 
@@ -187,19 +187,19 @@ def test_mirrored_hertz_mesh(folder):
 
 
 def test_mirrored_3d_off_axis(folder):
-    """A coarse quarter ball mirrored in y = -0.1 (the ball's symmetry plane y = 0 goes to y = -0.2): the
-    mirror in float64 does not print alike in ASCII, so the file is binary, and still bitwise."""
+    """A coarse quarter ball (on the foundation z = 0) mirrored in z = -0.1: the mirror in float64 does not
+    print alike in ASCII, so the file is binary, and still bitwise."""
     one = folder / "quarterball.msh"
     import_script("meshes", "quarterball").write(one, h=0.5)
     path = folder / "quarterball_mirrored.msh"
     _, binary = two_bodies.mirrored(one, path, axis_value=-0.1)
+    assert binary  # 2 * (-0.1) - z has digits that %.16g loses
     mesh = Read(path)
     groups = ("top", "symm_x", "symm_y", "contact", "free")
     check_bodies(mesh, {body: [f"{body}_{g}" for g in groups] for body in ("upper", "lower")})
-    check_mirror(mesh, -0.1)
-    assert binary  # 2 * (-0.1) - y has digits that %.16g loses
-    # (gmsh_common.jitter_nodes leaves round-off on the quarter ball's plane y = 0)
-    np.testing.assert_allclose(mesh.nodes_of("lower_symm_y")[:, 1], 2 * -0.1, rtol=0, atol=1e-15)
+    check_mirror(mesh, -0.1, axis=2)
+    assert np.all(mesh.nodes_of("lower_top")[:, 2] == 2 * -0.1 - 1.0)
+    assert mesh.measure("lower_contact") == pytest.approx(mesh.measure("upper_contact"), rel=1e-13)
     assert mesh.volume("lower") == pytest.approx(mesh.volume("upper"), rel=1e-13)
     assert mesh.volume("upper") == pytest.approx(math.pi / 6, rel=0.08)  # a quarter of a half ball, h = R/2
     check_orientation(path)
@@ -210,7 +210,7 @@ def test_mirrored_3d_off_axis(folder):
 def test_two_cylinders_2d(folder):
     path = folder / "cylinders.msh"
     R1, R2, h, h_contact = 1.0, 1.5, 0.25, 0.02
-    two_bodies.two_cylinders_2d(path, R1, R2, h, h_contact)
+    designed = two_bodies.two_cylinders_2d(path, R1, R2, h, h_contact)
     check_orientation(path)
     mesh = Read(path)
     check_bodies(mesh, {"upper": ["upper_top", "upper_contact", "upper_free"],
@@ -229,10 +229,11 @@ def test_two_cylinders_2d(folder):
     for nodes in (upper, lower):  # each has a node at the origin, exactly
         assert np.any(np.all(nodes == 0.0, axis=1))
     # graded: chords of about h_contact (upper) and 0.7 h_contact (lower) near the origin; non-matching
-    near = [np.sort(n[(np.abs(n[:, 0]) < 0.1) & (n[:, 0] != 0), 0]) for n in (upper, lower)]
+    near = [np.sort(n[(np.abs(n[:, 0]) < 0.12) & (n[:, 0] != 0), 0]) for n in (upper, lower)]
     chords = [np.diff(n).mean() for n in near]
     assert chords[0] == pytest.approx(h_contact, rel=0.15) and chords[1] == pytest.approx(0.7 * h_contact, rel=0.15)
-    assert np.abs(near[0][:, None] - near[1][None, :]).min() > 0.01 * h_contact
+    separation = np.abs(near[0][:, None] - near[1][None, :]).min()
+    assert separation > 0.01 * h_contact and separation == pytest.approx(designed, abs=0.02 * 0.7 * h_contact)
 
 
 def test_sphere_on_block_3d(folder):
