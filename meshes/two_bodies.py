@@ -146,12 +146,9 @@ def _jitter_and_snap(amplitude, planes, tdim, seed=1):
 
 
 def _separation(a, b):
-    """The smallest distance between a point of the sorted 1D set ``a`` and one of ``b``."""
-    a, b = np.sort(np.asarray(a, float)), np.sort(np.asarray(b, float))
-    if len(a) == 0 or len(b) == 0:
-        return np.inf
-    i = np.clip(np.searchsorted(b, a), 1, len(b) - 1) if len(b) > 1 else np.zeros(len(a), int)
-    return float(min(np.abs(a - b[i]).min(), np.abs(a - b[np.maximum(i - 1, 0)]).min()))
+    """The smallest distance between a number of ``a`` and one of ``b`` (inf if either is empty)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.abs(a[:, None] - b[None, :]).min()) if len(a) and len(b) else np.inf
 
 
 def _phi(t, alpha):
@@ -571,10 +568,11 @@ def main(argv=None):
     parser.add_argument("name", choices=["stacked_blocks_2d", "stacked_blocks_3d", "mirrored", "two_cylinders_2d",
                                          "sphere_on_block_3d"])
     parser.add_argument("out", help="the .msh file to write")
-    parser.add_argument("--h", type=float, help="size far from the contact (two_cylinders_2d, sphere_on_block_3d)")
+    parser.add_argument("--h", type=float, help="size far from the contact (two_cylinders_2d, sphere_on_block_3d); "
+                        "stacked blocks: the lower block's, the upper's 2/3 of it (default 1/6)")
     parser.add_argument("--h-contact", type=float, help="size near the contact point")
-    parser.add_argument("--h-lower", type=float, default=1 / 6, help="stacked blocks: lower block's size")
-    parser.add_argument("--h-upper", type=float, default=1 / 9, help="stacked blocks: upper block's size")
+    parser.add_argument("--h-lower", type=float, help="stacked blocks: the lower block's size (default --h)")
+    parser.add_argument("--h-upper", type=float, help="stacked blocks: the upper block's size (default 2/3 --h)")
     parser.add_argument("--R1", type=float, default=1.0, help="two_cylinders_2d: the upper radius")
     parser.add_argument("--R2", type=float, default=1.0, help="two_cylinders_2d: the lower radius")
     parser.add_argument("--R", type=float, default=1.0, help="sphere_on_block_3d: the ball's radius")
@@ -584,10 +582,12 @@ def main(argv=None):
     parser.add_argument("--axis", choices=["x", "y", "z"], help="mirrored: the mirror plane's normal axis")
     parser.add_argument("--jitter", type=float, default=0.01, help="node jitter, times the smallest size")
     args = parser.parse_args(argv)
-    if args.name == "stacked_blocks_2d":
-        stacked_blocks_2d(args.out, args.h_lower, args.h_upper, jitter=args.jitter)
-    elif args.name == "stacked_blocks_3d":
-        stacked_blocks_3d(args.out, args.h_lower, args.h_upper, jitter=args.jitter)
+    if args.name.startswith("stacked_blocks"):
+        h = 1 / 6 if args.h is None else args.h
+        h_lower = h if args.h_lower is None else args.h_lower
+        h_upper = 2 * h / 3 if args.h_upper is None else args.h_upper
+        write = stacked_blocks_2d if args.name.endswith("2d") else stacked_blocks_3d
+        write(args.out, h_lower, h_upper, jitter=args.jitter)
     elif args.name == "mirrored":
         if not args.input:
             parser.error("mirrored needs --input IN.msh")
