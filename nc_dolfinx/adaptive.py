@@ -22,6 +22,7 @@ from . import dolfinx_versions as versions
 from .estimator import indicators, marking
 from .mesh import refinement, shape
 from .mesh.balance import imbalance
+from .output.columns import Row
 from .physics import forms, quantities, slip_state
 from .physics.binding import bind
 from .problem import schema
@@ -286,12 +287,14 @@ class _Loop:
 
 
 def _row(number, domain, solution, est):
+    """The history row of one level, a :class:`~nc_dolfinx.output.columns.Row`: a dict that also answers to
+    the CSV's column names (``row["friction_force_x"]`` is ``row["friction_force"][0]``)."""
     stats, dim = solution.stats, domain.mesh.geometry.dim
-    row = {"level": number, "dofs": dim * domain.num_vertices(), "cells": domain.num_cells(),
-           "imbalance": imbalance(domain.mesh), **est.totals,
-           "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
-           "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix,
-           "recoveries": stats.recoveries}
+    row = Row({"level": number, "dofs": dim * domain.num_vertices(), "cells": domain.num_cells(),
+               "imbalance": imbalance(domain.mesh), **est.totals,
+               "newton_iterations": stats.newton_iterations, "linear_iterations": stats.linear_iterations,
+               "converged_reason": stats.converged_reason, "preconditioner_matrix": stats.preconditioner_matrix,
+               "recoveries": stats.recoveries})
     if solution.fields.friction is not None:
         row["friction_passes"] = stats.friction_passes
         row["friction_newton"] = stats.friction_newton
@@ -335,11 +338,40 @@ def estimator_options(problem):
 
 
 def progress_line(row):
-    where = f"step {row['step']}.{row['increment']} " if "step" in row else ""
-    text = (f"{where}level {row['level']:2d}: {row['dofs']:8d} dofs, {row['newton_iterations']:2d} Newton "
+    """The progress line of a history row (logged at INFO on rank 0 as each level is recorded).
+
+    Without [[steps]]: ``level k: …`` (the refinement level). On a load path: ``step s, increment k of N``
+    (``increment k`` on a step that sizes its own increments, whose number is not known in advance), and
+    ``, refined`` on a level solved again on the mesh refined after the step's last increment (the row's
+    number in the history follows in brackets: increments are not levels). Then dofs, Newton and linear
+    iterations, solve time and η; the H¹ error and the effectivity with an exact solution; with friction
+    the largest slip of the increment (``max_slip``)."""
+    if "step" in row:
+        where = f"step {row['step']}, increment {row['increment']}"
+        total = _increments_of(row)
+        where += f" of {total}" if total else ""
+        where += ", refined" if "time_refine" in row else ""
+        where += f" (row {row['level']})"
+    else:
+        where = f"level {row['level']:2d}"
+    text = (f"{where}: {row['dofs']:8d} dofs, {row['newton_iterations']:2d} Newton "
             f"({row['linear_iterations']} linear) its, solve {row['time_solve']:.2f} s, "
             f"eta = {row['eta']:.4e}")
     if "h1_error" in row:
         text += f", |u-u_h|_1 = {row['h1_error']:.4e}"
         text += f", eff = {row['effectivity']:.3f}" if row["effectivity"] is not None else ""
+    if "max_slip" in row:
+        text += f", max slip = {row['max_slip']:.3e}"
     return text
+
+
+def _increments_of(row):
+    """The number of increments of the row's step, from load_time = step − 1 + increment / increments, or
+    None on a step that sizes its own increments (its rows carry ``increment_cuts``)."""
+    if "increment_cuts" in row or "load_time" not in row:
+        return None
+    fraction = row["load_time"] - (row["step"] - 1)
+    if fraction <= 0:
+        return None
+    total = round(row["increment"] / fraction)
+    return total if total >= row["increment"] and abs(row["increment"] / total - fraction) < 1e-9 else None

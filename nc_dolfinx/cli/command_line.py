@@ -63,7 +63,11 @@ def parser():
                    help="linear solver preset for CG on the Jacobian: preconditioned by a MUMPS Cholesky "
                         "factorisation (direct) or BoomerAMG (iterative); auto (default) picks one from the "
                         "mesh's dimension and size")
-    p.add_argument("--load-steps", type=_whole, default=None, help="increments of the loads on level 0")
+    p.add_argument("--load-steps", type=_whole, default=None,
+                   help="increments of the loads on level 0 (not with [[steps]]: give their increments)")
+    p.add_argument("--write-every", type=_whole, default=None, metavar="N",
+                   help="write the files of every N-th state only (output.write_every; each step's last "
+                        "state always)")
     p.add_argument("--compare-uniform", action="store_true",
                    help="with --refine adaptive: also run uniform refinement (same level and dof limits) and "
                         "plot both in convergence.png (history_uniform.csv)")
@@ -212,10 +216,12 @@ def prepare_runs(args, cli_options, comm, say):
     runs, outs = [], set()
     for case in names:
         problem = nc.load_problem(case, args.set)
-        changes = {"solver.preset": args.preset, "solver.load_steps": args.load_steps}  # --preset, --load-steps
+        changes = {"solver.preset": args.preset, "solver.load_steps": args.load_steps,  # --preset, --load-steps,
+                   "output.write_every": args.write_every}                              # --write-every
         changes = {key: value for key, value in changes.items() if value is not None}
         if changes:
             problem = problem.replace(changes)
+        check_path_options(problem, args)
         settings = nc.AdaptSettings.from_problem(
             problem, refine=args.refine, levels=args.levels, theta=args.theta, marking=args.marking,
             max_dofs=args.max_dofs, tol=args.tol, rtol=args.rtol)
@@ -234,6 +240,25 @@ def prepare_runs(args, cli_options, comm, say):
     return runs
 
 
+def check_path_options(problem, args):
+    """Options that a load path ([[steps]]) changes the meaning of. ``--load-steps`` (solver.load_steps)
+    splits the loads of level 0's solve: on a path it would split the first increment alone, so it is
+    refused there (a path's increments are [[steps]].increments). ``output.load_path_x`` must be
+    ``load_time`` or a parameter the steps set."""
+    steps = problem["steps"]
+    if steps and problem["solver.load_steps"] != 1:
+        given = "--load-steps" if args.load_steps is not None else "solver.load_steps"
+        raise InputError(f"{given} = {problem['solver.load_steps']} splits the loads of a single solve, and "
+                         "this problem is a load path: give its steps more increments instead "
+                         "([[steps]].increments, e.g. increments = 3)")
+    x = problem["output.load_path_x"]
+    moved = list(dict.fromkeys(name for step in steps for name in step["set"]))
+    if x != "load_time" and x not in moved:
+        where = f"the parameters its steps set: {', '.join(moved)}" if moved else "it has no [[steps]]"
+        raise InputError(f"output.load_path_x = '{x}' is neither 'load_time' nor a parameter of the load path "
+                         f"({where})")
+
+
 def run_case(run, args, comm, say):
     from ..log import logger, show_progress
     problem, settings = run.problem, run.settings
@@ -249,5 +274,6 @@ def run_case(run, args, comm, say):
         say(f"  {quantity}: computed {computed:.5g}, reference {ref:.5g} "
             f"({100 * (computed - ref) / ref:+.2f} %)")
     say(f"  stopped: {run.reason}")
-    say(f"  wrote {run.out}/ (summary.json, history.csv, solution.xdmf, solution.pvd, levels/, convergence.png) "
+    plots = "convergence.png, load_path.png" if problem["steps"] else "convergence.png"
+    say(f"  wrote {run.out}/ (summary.json, history.csv, solution.xdmf, solution.pvd, levels/, {plots}) "
         f"in {time.perf_counter() - run.start:.1f} s")

@@ -35,6 +35,8 @@ class CaseRun:
         self.stage_name = "level 0"
         self.stop_reason = self.reason = self.diameter = self.notes = self.kept = None
         self.solution_level = None  # the level whose files solution.xdmf/.h5 are
+        self.step_ends = problem._step_ends() if problem["steps"] else None  # (for the param_NAME columns)
+        self.write_every = problem["output.write_every"]
         self.versions = provenance.versions()
         self.start = time.perf_counter()
 
@@ -71,6 +73,7 @@ class CaseRun:
         if level.number == 0:
             self.first_level(level)
         level.row["max_displacement"] = max_displacement(level.u)
+        level.row.update(columns.path_parameters(self.problem, level.row, self.step_ends))
         self.check_doubtful(level.number, level.row)
         self.write_level(level)
         self.history.append(level.row)
@@ -104,7 +107,20 @@ class CaseRun:
         self.warnings.append(text)
         self.say(f"nc_dolfinx: warning: {text}")
 
+    def written(self, level):
+        """Whether the level's files are written (``output.write_every`` = n): without [[steps]] every n-th
+        level and the last; on a load path the increments numbered a multiple of n in their step, and each
+        step's last state (every level of it: its load_time is the step's number)."""
+        row, n = level.row, self.write_every
+        if n == 1 or level.stop_reason:
+            return True
+        if "step" not in row:
+            return level.number % n == 0
+        return row["increment"] % n == 0 or row["load_time"] == row["step"]
+
     def write_level(self, level):
+        if not self.written(level):
+            return
         u, est = level.u, level.estimate
         msh = u.function_space.mesh
         stress, von_mises, pressure = postprocess.postprocess_fields(u, level.fields)
@@ -142,11 +158,17 @@ class CaseRun:
         return rows
 
     def plot(self, histories):
-        from ..output.plots import convergence_plot
+        from ..output.plots import convergence_plot, load_path_plot
         title = self.problem.title.split(":")[0]
         files.on_rank0(self.comm, lambda: self.folder.replace(
             "convergence.png", lambda path: convergence_plot(path, {k: final_state(rows) for k, rows in histories.items()},
                                                              title)), self.out / "convergence.png")
+        rows = histories[self.settings.refine]
+        if rows and "step" in rows[-1]:  # a load path: its forces against the load time or a parameter
+            x = self.problem["output.load_path_x"]
+            files.on_rank0(self.comm, lambda: self.folder.replace(
+                "load_path.png", lambda path: load_path_plot(path, rows, x if x == "load_time" else f"param_{x}",
+                                                             title)), self.out / "load_path.png")
 
     # --- records -------------------------------------------------------------------------------------
     def write_records(self, status):
@@ -194,6 +216,8 @@ class CaseRun:
                  "max_dofs": lambda: f"dofs = {row['dofs']} >= max_dofs = {s.max_dofs}",
                  "tol": lambda: f"η = {row['eta']:.4g} <= tol = {s.tol:g}",
                  "rtol": lambda: f"η = {row['eta']:.4g} <= rtol·η_0 = {s.rtol:g}·{eta0:.4g}"}
+        if "step" in row:  # (a load path's rows are increments, not levels)
+            return f"{texts[result.stop_reason]()} at step {row['step']}, increment {row['increment']} (row {row['level']})"
         return f"{texts[result.stop_reason]()} at level {row['level']}"
 
     # --- failure and interruption ------------------------------------------------------------------

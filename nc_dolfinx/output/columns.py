@@ -25,6 +25,9 @@ COLUMNS = {
     "step": "load path only: the step of [[steps]] (1, 2, …) the row solves",
     "increment": "load path only: the increment of that step (its last: the step's parameters in full)",
     "load_time": "load path only: step − 1 + increment / increments, the time step of solution.pvd",
+    "param_NAME": "load path only: the value at the row's state of the parameter NAME that [[steps]] set "
+                  "(each step moves it linearly over its increments): e.g. param_dt, the x-axis of load_path.png "
+                  "with output.load_path_x = \"dt\"",
     "dofs": "degrees of freedom: dimension × vertices (Dirichlet ones included)",
     "cells": "cells (triangles in 2D, tetrahedra in 3D)",
     "imbalance": "owned cells of the busiest rank over the mean (1 on one rank); a refined mesh above 1.05 is "
@@ -50,12 +53,15 @@ COLUMNS = {
     "max_contact_pressure": "max of the nodal contact pressure p >= 0 (lumped L² projection on Γ_C)",
     "elastic_energy": "½ a(u_h, u_h)",
     "contact_resultant": "∫_Γ_C p >= 0: the normal contact force",
-    "contact_force_x": "x component of −∫_Γ_C p ν, the force of the foundation on the body",
+    "contact_force_x": "x component of −∫_Γ_C p ν, the force of the foundation on the body (−Σ_i j_n(u_h, φ_i): "
+                       "the resultant of the normal law's part of the residual of (7), with its Gauss rule)",
     "contact_force_y": "y component of −∫_Γ_C p ν",
     "contact_force_z": "z component of −∫_Γ_C p ν (3D)",
     "contact_length": "measure of {p > 0} on Γ_C (2D; contact_area in 3D)",
-    "friction_force_x": "with friction: x component of ∫_Γ_C s_t (vertex rule: the law at the vertices), the "
-                        "tangential force of the foundation on the body (_y, _z alike)",
+    "friction_force_x": "with friction: x component of the tangential force of the foundation on the body "
+                        "(_y, _z alike), −Σ_i j_t(u_h, φ_i), the resultant of the friction part of the residual "
+                        "of (7): ∫_Γ_C s_t·(e_x)_t by the vertex rule (the law at the vertices, (e_x)_t the axis "
+                        "normal to the vertex normal N)",
     "slip_length": "with friction: Σ m_i, m_i = ∫_Γ_C φ_i, over the vertices in contact that slip by the law's "
                    "test |s| > ε_r (u·N − g̃_0)_+, s the spring's slip (stick_slip = 2; 2D, slip_area in 3D)",
     "stick_length": "with friction: the same over the vertices in contact that stick, |s| <= ε_r (u·N − g̃_0)_+ "
@@ -69,8 +75,10 @@ COLUMNS = {
                           "(_y, _z alike): Σ of the residual of (7) at the dofs it constrains (a dof on two "
                           "groups counts for the first; a symmetry plane's force lies along its normal, a roller's along "
                           "the components loads.u_D holds: a free component carries none)",
-    "force_balance": "|applied_load + contact_force + Σ reactions| / (|applied_load| + |contact_force| + "
-                     "Σ |reaction|): 0 for a body in equilibrium, within the solver's tolerance",
+    "force_balance": "|applied_load + contact_force [+ friction_force] + Σ reactions| / (|applied_load| + "
+                     "|contact_force| [+ |friction_force|] + Σ |reaction|): 0 for a body in equilibrium, within "
+                     "the solver's tolerance (every force is the resultant of its part of the residual of (7), "
+                     "on curved and flat Γ_C alike)",
     "max_displacement": "max over the vertices of |u_h|",
     "l2_error": "‖u − u_h‖_0 (with an exact solution)",
     "h1_error": "‖u − u_h‖_1 (with an exact solution)",
@@ -106,6 +114,8 @@ FIELDS = {
 
 def describe(name):
     """The meaning of a column (None if undocumented: tests/test_output.py fails then)."""
+    if name.startswith("param_"):
+        return COLUMNS["param_NAME"].replace("NAME", repr(name[len("param_"):]), 1)
     if name.startswith("reaction_") and name[-2:] in ("_x", "_y", "_z"):
         return COLUMNS["reaction_GROUP_x"].replace("GROUP", repr(name[len("reaction_"):-2]), 1)
     for vector in ("applied_load_", "friction_force_"):
@@ -126,3 +136,65 @@ def markdown():
 
 if __name__ == "__main__":
     print(markdown(), end="")
+
+
+AXES = "xyz"
+
+
+class Row(dict):
+    """A history row (what :func:`nc_dolfinx.adapt` returns in ``Result.history``): a dict whose vector
+    quantities (``contact_force``, ``friction_force``, ``applied_load``, ``reaction_GROUP``) are lists, as in
+    ``history.json``, and which also answers to the names of ``history.csv``'s columns: ``row["friction_force_x"]``
+    is ``row["friction_force"][0]`` (``_y``, ``_z`` alike; ``in`` and ``get`` too). Iterating, ``keys()``,
+    ``dict(row)`` and JSON give the stored keys only (the vectors as lists), so nothing is written twice."""
+
+    def _component(self, key):
+        """The (vector, index) a CSV column name ``NAME_x`` stands for, or None."""
+        if not isinstance(key, str) or len(key) < 3 or key[-2] != "_" or key[-1] not in AXES:
+            return None
+        vector = dict.get(self, key[:-2])
+        index = AXES.index(key[-1])
+        return (vector, index) if isinstance(vector, (list, tuple)) and index < len(vector) else None
+
+    def __missing__(self, key):
+        found = self._component(key)
+        if found is None:
+            raise KeyError(key)
+        return found[0][found[1]]
+
+    def __contains__(self, key):
+        return dict.__contains__(self, key) or self._component(key) is not None
+
+    def get(self, key, default=None):
+        return self[key] if key in self else default
+
+    def __reduce__(self):  # (pickled as itself: MPI and copies keep the aliases)
+        return (Row, (dict(self),))
+
+
+def path_parameters(problem, row, ends=None):
+    """The columns ``param_NAME`` of a history ``row`` of ``problem``'s load path: the value at the row's
+    state of every parameter that the [[steps]] set (in the order they are first set), as the path moves it:
+    within step k, the parameters k sets moved linearly from where step k − 1 left them to their values at
+    the step's end (a fraction increment / increments of the way, or load_time − k + 1 on a step that
+    sizes its own increments), the others as the step's end problem has them (one defined by an
+    expression of a moved one follows it). Empty without [[steps]] or for a row without ``step``.
+    ``ends``: the problems at each step's end, if already made (:meth:`Problem._step_ends`)."""
+    steps = problem.values["steps"]
+    if not steps or not row.get("step"):
+        return {}
+    names = list(dict.fromkeys(name for step in steps for name in step["set"]))
+    ends = ends if ends is not None else problem._step_ends()
+    number = row["step"]
+    step, end = steps[number - 1], ends[number - 1]
+    if isinstance(step["increments"], int):
+        fraction = row["increment"] / step["increments"]
+    else:  # ("auto": the state's own fraction of the step)
+        fraction = row["load_time"] - (number - 1)
+    if fraction >= 1.0:
+        values = end.parameters
+    else:
+        start = (ends[number - 2] if number > 1 else problem).parameters
+        moved = {name: start[name] + (value - start[name]) * fraction for name, value in step["set"].items()}
+        values = end.at_parameters(moved).parameters
+    return {f"param_{name}": float(values[name]) for name in names}

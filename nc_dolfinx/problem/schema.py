@@ -185,6 +185,17 @@ KEYS = [
         check=_all(_at_least_one, _at_most(MAX_QUADRATURE_DEGREE, "a Gauss rule's degree"))),
     Key("estimator.cell_quadrature_degree", "integer", "Gauss degree of the cell and Γ_N terms of η and ζ",
         NONE, check=_all(_at_least_one, _at_most(MAX_QUADRATURE_DEGREE, "a Gauss rule's degree"))),
+    # [output]
+    Key("output.write_every", "integer", "write the files of every n-th state only (`levels/level_NN.*` and its "
+        "time step in `solution.pvd`): on a load path the increments whose number in their step is a multiple "
+        "of n, and always each step's last state (with the levels refined from it); without [[steps]] every "
+        "n-th level and the last. `history.csv`, `history.json` and `summary.json` keep every row. The command "
+        "line's `--write-every N` sets it", 1, check=_all(_at_least_one, _at_most(MAX_STEPS * MAX_LOAD_STEPS,
+                                                                              "states"))),
+    Key("output.load_path_x", "string", "the abscissa of `load_path.png` (drawn for a run with [[steps]]: each "
+        "reaction's components and the friction force against it): `load_time` (default), or the name of a "
+        "parameter the steps set (its column `param_NAME`, e.g. `\"dt\"`), where a cycle's hysteresis shows",
+        "load_time"),
     # [reference]
     Key("reference.hertz", "choice", "print Hertz's contact size and peak pressure beside the computed ones: "
         "`line` (2D, a cylinder) or `sphere` (3D)", NONE, ("line", "sphere")),
@@ -206,6 +217,7 @@ _BY_PATH = {key.path: key for key in KEYS}
 ROLES = ("dirichlet", "neumann", "contact", "symmetry")
 FREE = "free"  # a component of loads.u_D left free (a roller)
 GROUP_TABLES = ("traction", "displacement")  # a vector for all groups of a role, or a table of them
+SECTIONS += ("output",)  # [output]: which states are written and how the load path is drawn
 
 
 def find_key(path):
