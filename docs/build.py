@@ -5,7 +5,7 @@
 1. copies the sources docs/src/ to DIR/src/ (a staging tree, so a build writes nothing into the repository
    outside DIR) and generates there, under ``_generated/`` (files that pages include, not pages):
    ``keys.md`` and ``columns.md`` (the problem-file keys and the output columns, docs/reference_tables.py;
-   the guide includes both),
+   the reference pages include them),
    ``verification/`` (verification/report.md, its headings one level down, and its pictures; the
    verification page does ``{include} _generated/verification/report.md`` with ``:relative-images:``) and
    ``figures/`` (the pictures docs/*.png), and the demo pages ``demos/demo_*.md``: every demo executed

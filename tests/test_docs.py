@@ -1,7 +1,8 @@
 """The documentation site (issue 29): ``docs/build.py`` builds it with warnings as errors, the demos
 executed, every internal link resolving; then headless Chromium opens the built pages through file://
 URLs and sees the titles, pictures that really render (not broken images), the demos' output, every
-public name on the API page, every problem-file key in the guide.
+public name on the API page, every problem-file key and output column on the reference pages, the
+tutorials first in the navigation with their pictures and no dated log in it.
 
 Needs python3-sphinx, python3-myst-parser, furo, chromium, chromium-driver and python3-selenium
 (install.sh): without them the tests fail, they do not skip. No network: Chromium resolves no host name.
@@ -145,16 +146,36 @@ def test_verification_page_shows_the_report_and_its_pictures(site, browser):
     assert "Overall:" in browser.page_source  # the report's verdict line
 
 
-def test_guide_lists_every_problem_file_key_and_output_column(site):
-    """The guide includes the tables docs/build.py generates from the schema and the output columns
-    (docs/reference_tables.py): every key and every column appears on the built page."""
+def test_reference_lists_every_problem_file_key_and_output_column(site):
+    """The reference pages include the tables docs/build.py generates from the schema and the output columns
+    (docs/reference_tables.py): every key on reference/keys.html, every column on reference/output.html."""
     html, _ = site
     spec = importlib.util.spec_from_file_location("reference_tables", ROOT / "docs" / "reference_tables.py")
     tables = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(tables)
-    page = (html / "guide.html").read_text()
-    for what, table in (("keys", tables.key_table()), ("columns", tables.column_table())):
+    for what, table, page in (("keys", tables.key_table(), "reference/keys.html"),
+                              ("columns", tables.column_table(), "reference/output.html")):
+        text = (html / page).read_text()
         names = re.findall(r"^\| `([^`]+)` \|", table, flags=re.M)
         assert len(names) > 20, names
-        missing = [name for name in names if f">{name}<" not in page]
-        assert not missing, f"{what} not in the guide (it should include _generated/{what}.md): {missing}"
+        missing = [name for name in names if f">{name}<" not in text]
+        assert not missing, f"{what} not on {page} (it should include _generated/{what}.md): {missing}"
+
+
+def test_navigation_puts_the_tutorials_first_and_holds_no_dated_log(site, browser):
+    """Issue 49: the tutorials are the first entry of the navigation, every tutorial page is reachable from
+    it and shows its pictures; the performance archive (superseded, dated measurements) is not in it."""
+    from selenium.webdriver.common.by import By
+    html, _ = site
+    open_page(browser, html, "index.html")
+    captions = [e.text.strip() for e in browser.find_elements(By.CSS_SELECTOR, ".sidebar-tree p.caption")]
+    assert captions and captions[0] == "Tutorials", captions
+    links = [e.get_attribute("href") for e in browser.find_elements(By.CSS_SELECTOR, ".sidebar-tree a")]
+    assert not [link for link in links if "performance-archive" in link], links
+    assert (html / "performance-archive.html").is_file()  # kept, linked from the performance page
+    for page in sorted((ROOT / "docs" / "src" / "tutorials").glob("*.md")):
+        assert any(f"tutorials/{page.stem}.html" in link for link in links), page.name
+        if page.stem != "index":
+            open_page(browser, html, f"tutorials/{page.stem}.html")
+            shown = re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", page.read_text())
+            assert_pictures_render(browser, at_least=len(shown))
