@@ -203,6 +203,9 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     from the previous state on the current mesh, and refines per ``settings`` after each step's last
     increment; the mesh only grows along the path (a state moves to a refined mesh exactly, see
     :func:`refine`). History rows then carry the ``step``, its ``increment`` and the path's ``load_time``.
+    Each increment starts Newton from the secant prediction of its end state (``solver.predictor``); a step
+    with ``increments = "auto"`` sizes its own increments, cutting in two those that fail or need more than
+    ``solver.increment_newton_target`` Newton steps (rows: ``increment_cuts``, ``cut_reason``; see _Loop).
 
     ``settings``: AdaptSettings (default: the problem's [adapt], with ``overrides`` such as ``levels=3,
     refine="uniform"``: :meth:`AdaptSettings.from_problem`'s); ``domain``: the level-0 mesh (default:
@@ -228,23 +231,123 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
 
 class _Loop:
     """The levels of :func:`adapt`, step after step of a load path: what runs on from one to the next
-    (the history, the last solution, the times of the refinement that made the mesh)."""
+    (the history, the last solution, the times of the refinement that made the mesh).
+
+    **The predictor** (``solver.predictor``, default ``"secant"``). Each increment of a path starts Newton
+    from a prediction of its end state: where the parameters move on along the line of the last increment,
+    Δp_k+1 = α Δp_k with α > 0 (within a step: α = (t_k+1 − t_k)/(t_k − t_k−1)), the secant extrapolation
+    u_k + α (u_k − u_k−1) of the last two converged states (on the same mesh); elsewhere (the first two
+    solves, a turn of the path, a new mesh) the previous state u_k. Only the initial guess changes: the
+    solver imposes the Dirichlet values itself, and the friction law's memory (``state_start``: u_prev and
+    σ_t,prev) is the last converged state, whatever the guess. A solve from a prediction that fails is
+    solved again from u_k before anything else is done.
+
+    **Self-sizing increments** (a step's ``increments = "auto"``, :meth:`_auto_step`): the step is tried
+    whole; an increment whose solve fails (InputError) or needs more than ``solver.increment_newton_target``
+    Newton steps is discarded and solved again from the last converged state (u_k and the law's memory)
+    in two halves, down to the step over 2^``solver.max_increment_cuts`` (where a failure is the error);
+    an increment that needs at most half of the target lets the next double, never beyond the step's end.
+    Rows of an auto step carry ``increment_cuts`` (how many halvings preceded the increment),
+    ``cut_reason`` (why, "" if none) and ``time_cut`` (the time of the discarded solves). A step with a
+    number of increments is solved exactly in them, as before (a failure is an error, never cut)."""
 
     def __init__(self, settings, petsc_options, on_level, times):
         self.settings, self.petsc_options, self.on_level, self.times = settings, petsc_options, on_level, times
         self.history, self.previous = [], None
         self.state_start = None  # with friction: u at the previous load state, on the current mesh
+        # the secant predictor's two last converged states: (u, parameters), the last first
+        self.converged = []
 
     def step(self, state, domain):
-        """Solve one state; after a step's last increment, go on adaptively per the settings. Returns the
-        mesh the next state starts on and the last :class:`Level` (``stop_reason`` set at a step's end)."""
+        """Solve one state (a step with ``increments = "auto"``: every increment of it); after a step's last
+        increment, go on adaptively per the settings. Returns the mesh the next state starts on and the
+        last :class:`Level` (``stop_reason`` set at a step's end)."""
+        if state.auto and state.fraction is None:
+            return self._auto_step(state, domain)
+        solution = self._solve(state, domain)
+        return self._levels(state, domain, solution)
+
+    def _guess(self, state):
+        """The Newton initial guess of ``state``: the secant prediction, or the previous state (see the class)."""
+        if state.problem.values["solver"]["predictor"] == "none" or len(self.converged) < 2:
+            return self.previous
+        (u_k, p_k), (u_before, p_before) = self.converged
+        if u_k is not self.previous or u_k.function_space.mesh is not u_before.function_space.mesh:
+            return self.previous
+        alpha = secant_ratio(p_before, p_k, state.problem.parameters)
+        if alpha is None:
+            return self.previous
+        guess = fem.Function(u_k.function_space)
+        guess.x.array[:] = u_k.x.array + alpha * (u_k.x.array - u_before.x.array)
+        return guess
+
+    def _solve(self, state, domain):
+        """Solve ``state`` on ``domain`` from the guess (the predictor's, or from the previous state if that
+        fails); the time in ``self.times["solve"]``."""
+        number = len(self.history)
+        t = time.perf_counter()
+        guess = self._guess(state)
+        steps = None if number == 0 else 1
+        try:
+            solution = solve(state.problem, domain, guess, self.petsc_options, steps, previous_state=self.state_start)
+        except InputError:
+            if guess is self.previous:
+                raise
+            log.info("the predicted initial guess failed: solved again from the previous state")
+            solution = solve(state.problem, domain, self.previous, self.petsc_options, steps,
+                             previous_state=self.state_start)
+        self.times["solve"] = time.perf_counter() - t
+        return solution
+
+    def _auto_step(self, placeholder, domain):
+        """Every increment of a step with ``increments = "auto"`` (see the class), each followed by
+        :meth:`_levels` (refinement after the last). Returns what :meth:`step` returns."""
+        settings = placeholder.end.values["solver"]
+        smallest = 0.5 ** settings["max_increment_cuts"]
+        target = settings["increment_newton_target"]
+        done, size, increment, reasons, cut_time, tried = 0.0, 1.0, 0, [], 0.0, None
+        while True:
+            fraction = min(done + size, 1.0)
+            state = placeholder.at(fraction, increment + 1)
+            actual = fraction - done
+            t = time.perf_counter()
+            try:
+                solution = self._solve(state, domain)
+                newton = solution.stats.newton_iterations
+                # (over the target, cut while halving pays: not when the half needed 3/4 of the whole's Newton
+                # steps or more, as the first increment of a reversal under friction does at any size)
+                slow = newton > target and not (tried is not None and newton >= 0.75 * tried)
+                reason = f"{newton} Newton steps > {target}" if slow and actual > smallest * (1 + 1e-9) else None
+                tried = newton if reason is not None else None
+            except InputError as err:
+                if actual <= smallest * (1 + 1e-9):
+                    raise InputError(f"{err} (step {state.step}, increments = \"auto\": at its smallest "
+                                     f"increment, 1/2^{settings['max_increment_cuts']} of the step, after "
+                                     f"{len(reasons)} cuts; see solver.max_increment_cuts)") from None
+                reason, tried = f"failed: {err}", None
+            if reason is not None:
+                cut_time += time.perf_counter() - t
+                reasons.append(reason)
+                size = actual / 2
+                if domain.comm.rank == 0:
+                    log.info(f"step {state.step}, increment to {state.time:.6g}: {reason}; cut in two")
+                continue
+            increment += 1
+            extra = {"increment_cuts": len(reasons), "cut_reason": "; ".join(reasons), "time_cut": cut_time}
+            domain, level = self._levels(state, domain, solution, extra)
+            if state.ends_step:
+                return domain, level
+            done, reasons, cut_time = fraction, [], 0.0
+            size = 2 * actual if newton <= target // 2 else actual
+
+    def _levels(self, state, domain, solution, extra=None):
+        """The state's levels from its first ``solution``: after a step's last increment, refinement per the
+        settings, each finer level solved from the coarser one. Returns the mesh and the last Level."""
         eta0 = None
         for number_in_step in range(self.settings.levels if state.ends_step else 1):
             number = len(self.history)
-            t = time.perf_counter()
-            solution = solve(state.problem, domain, self.previous, self.petsc_options, None if number == 0 else 1,
-                             previous_state=self.state_start)
-            self.times["solve"] = time.perf_counter() - t
+            if number_in_step > 0:
+                solution = self._solve(state, domain)
             t = time.perf_counter()
             est = indicators.estimate(solution.u, solution.fields, **estimator_options(state.problem))
             self.times["estimate"] = time.perf_counter() - t
@@ -255,6 +358,8 @@ class _Loop:
                                                                           row.get("max_penetration", 0.0))
             if state.step:
                 row.update(step=state.step, increment=state.increment, load_time=state.time)
+            if extra is not None:
+                row.update(extra if number_in_step == 0 else {"increment_cuts": 0, "cut_reason": "", "time_cut": 0.0})
             stop = _stop_reason(self.settings, number_in_step, row["dofs"], est.totals["eta"], eta0) \
                 if state.ends_step else None
             marked = None
@@ -267,6 +372,8 @@ class _Loop:
             level = Level(number, solution, est, row, marked, stop, last_of_state=bool(stop) or not state.ends_step)
             self._record(level)
             self.previous, self.times = solution.u, {}
+            if level.last_of_state:  # (the predictor's states: each state's finest solution)
+                self.converged = [(solution.u, dict(state.problem.parameters))] + self.converged[:1]
             if solution.fields.friction is not None:  # the next state slips from here; a finer level from the same
                 self.state_start = (slip_state.state_after(solution.u, solution.fields) if level.last_of_state
                                     else slip_state.start_state(solution.fields.friction))
@@ -284,6 +391,22 @@ class _Loop:
         self.history.append(level.row)
         if level.solution.domain.comm.rank == 0:
             log.info(progress_line(level.row))
+
+
+def secant_ratio(p_before, p_k, p_next):
+    """α with p_next − p_k = α (p_k − p_before), α > 0, if the parameters (dicts) move on along the line of
+    the last increment (to 1e-9 of the increment), else None: where the secant predictor extrapolates."""
+    names = sorted(set(p_before) | set(p_k) | set(p_next))
+    old = [p_k.get(n, 0.0) - p_before.get(n, 0.0) for n in names]
+    new = [p_next.get(n, 0.0) - p_k.get(n, 0.0) for n in names]
+    old2 = sum(a * a for a in old)
+    if old2 == 0.0:
+        return None
+    alpha = sum(a * b for a, b in zip(old, new)) / old2
+    off = math.sqrt(sum((b - alpha * a) ** 2 for a, b in zip(old, new)))
+    if not (alpha > 0.0 and off <= 1e-9 * math.sqrt(sum(b * b for b in new))):
+        return None
+    return alpha
 
 
 def _row(number, domain, solution, est):

@@ -142,3 +142,19 @@ def test_the_replayed_systems_are_the_cold_solve_s(tmp_path):
     for r in rows:
         assert r["systems"] == r["Newton"] > 1, r
         assert (r["refresh set-ups"], r["kept set-ups"], r["block set-ups"]) == (r["systems"], 1, 1), r
+
+
+def test_the_load_cycle_runs_and_reports_its_costs(tmp_path):
+    """benchmarks/load_cycle.py --smoke (16 and 4 cells, one 2D and one 3D friction member, one rank): the cycle
+    converges in its 20 increments, every cost is a positive multiple of the floor (the worst at least the mean),
+    and the table carries its provenance (date, commit, machine, command)."""
+    out = tmp_path / "cycle.json"
+    proc = run([ROOT / "benchmarks" / "load_cycle.py", "--smoke", "--json-out", out], timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = json.loads(out.read_text())
+    assert [(r["member"], r["dim"]) for r in rows] == [("1-1-mu0.3", 2), ("3d-1-1-mu0.3", 3)]
+    for r in rows:
+        assert r["converged"] and r["incr"] == 20 and r["cuts"] == 0, r
+        assert 0 < r["mean"] <= r["worst"] and r["cold"] > 0 and len(r["costs"]) == 20, r
+    for label in ("- date:", "- commit:", "- machine:", "- command:"):
+        assert label in proc.stdout

@@ -106,7 +106,9 @@ class Problem:
         """The states of the load path ([[steps]]), one per increment, in order, as :class:`LoadState` objects
         (a generator; every step's end is validated before the first is given). Each step moves the
         parameters it sets linearly from where the previous step left them, in its number of increments.
-        Without steps the path is the problem itself."""
+        Without steps the path is the problem itself. A step with ``increments = "auto"`` is given as one
+        LoadState without an increment (``auto``, ``fraction`` None), whose :meth:`LoadState.at` makes its
+        states at the fractions the solver chooses (:func:`~nc_dolfinx.adapt` sizes them)."""
         if not self.values["steps"]:
             return iter([LoadState(self, 0, 1, 1)])
         return self._increments(self.values["steps"], self._step_ends())
@@ -126,6 +128,10 @@ class Problem:
         start = self.parameters
         for number, (step, end) in enumerate(zip(steps, ends), 1):
             n = step["increments"]
+            if n == "auto":
+                yield LoadState(end, number, 0, "auto", start={name: start[name] for name in step["set"]}, end=end)
+                start = end.parameters
+                continue
             for i in range(1, n):
                 moved = {name: start[name] + (value - start[name]) * i / n for name, value in step["set"].items()}
                 yield LoadState(end.at_parameters(moved), number, i, n)
@@ -149,21 +155,43 @@ class Problem:
 @dataclass(frozen=True)
 class LoadState:
     """One solve on a load path (:meth:`Problem.load_path`): the ``problem`` at this state's parameters,
-    its ``step`` (1, 2, …; 0 when the problem has no [[steps]]) and its ``increment`` of ``increments``."""
+    its ``step`` (1, 2, …; 0 when the problem has no [[steps]]) and its ``increment`` of ``increments``.
+
+    On a step with ``increments = "auto"`` (``auto``) the number of increments is not known in advance: the
+    state is the one at ``fraction`` of the step (1: its end, the step's parameters exactly), made by
+    :meth:`at` from the step's placeholder that :meth:`Problem.load_path` gives (``fraction`` None)."""
     problem: Problem
     step: int
     increment: int
-    increments: int
+    increments: object            # a number of increments, or "auto"
+    fraction: float = None        # auto: the part of the step done at this state
+    start: dict = field(default=None, repr=False, compare=False)     # auto: the parameters set, at the start
+    end: Problem = field(default=None, repr=False, compare=False)    # auto: the problem at the step's end
+
+    @property
+    def auto(self):
+        """Whether the step sizes its own increments (``increments = "auto"``)."""
+        return self.increments == "auto"
 
     @property
     def ends_step(self):
         """Whether this is the step's last increment (where adaptive refinement happens)."""
-        return self.increment == self.increments
+        return self.fraction == 1.0 if self.auto else self.increment == self.increments
 
     @property
     def time(self):
-        """The pseudo-time along the path: step − 1 + increment / increments (the step's number at its end)."""
-        return self.step - 1 + self.increment / self.increments
+        """The pseudo-time along the path: step − 1 + increment / increments (the step's number at its end);
+        on an auto step step − 1 + fraction."""
+        return self.step - 1 + (self.fraction if self.auto else self.increment / self.increments)
+
+    def at(self, fraction, increment):
+        """An auto step's state at ``fraction`` of it (0 < fraction <= 1; 1: the step's end problem itself),
+        numbered ``increment``: the parameters it sets moved linearly from their values at its start."""
+        if fraction >= 1.0:
+            return LoadState(self.end, self.step, increment, "auto", 1.0, self.start, self.end)
+        end = self.end.parameters
+        moved = {name: value + (end[name] - value) * fraction for name, value in self.start.items()}
+        return LoadState(self.end.at_parameters(moved), self.step, increment, "auto", fraction, self.start, self.end)
 
 
 def _check_consistency(values, given):

@@ -177,6 +177,19 @@ KEYS = [
         ("auto", "bulk", "jacobian")),
     Key("solver.load_steps", "integer", "load increments on level 0", 1,
         check=_all(_at_least_one, _at_most(MAX_LOAD_STEPS, "increments, each a solve"))),
+    Key("solver.predictor", "choice", "the initial guess of each increment of a load path from the third solve "
+        "on: `secant` extrapolates the last two converged states, u_k + α (u_k − u_k−1), where the parameters "
+        "move on along the same line (α the ratio of the two parameter increments; elsewhere, at a turn of the "
+        "path, the previous state itself); `none` starts from the previous state. The converged states are "
+        "the same to the solver's tolerance; with friction the law's memory stays the last converged state",
+        "secant", ("secant", "none")),
+    Key("solver.max_increment_cuts", "integer", "`increments = \"auto\"` steps: how many times an increment may "
+        "be halved (its smallest size: the step over 2^cuts) before the failure that needs more is an error",
+        8, check=_all(_non_negative, _at_most(30, "halvings"))),
+    Key("solver.increment_newton_target", "integer", "`increments = \"auto\"` steps: an increment that needs "
+        "more Newton steps than this is solved again in two halves (unless at its smallest size); one that "
+        "needs at most half of it lets the next one double", 25,
+        check=_all(_at_least_one, _at_most(1000, "Newton steps"))),
     Key("solver.petsc_options", "table", "PETSc options under the solver's prefix, e.g. "
         "`{ snes_rtol = 1e-12 }`; the command line's `-options` win", {}),
     Key("solver.petsc_options.*", "option", "one PETSc option (name without the dash)"),
@@ -206,7 +219,13 @@ KEYS = [
         "parameters keep their values, and those defined by expressions of the ones set follow them",
         REQUIRED),
     Key("steps.increments", "integer", "how many solves the step takes from the previous step's state "
-        "(the parameters it sets move linearly); adaptive refinement, per [adapt], after the last one",
+        "(the parameters it sets move linearly); adaptive refinement, per [adapt], after the last one. "
+        "`\"auto\"`: the step sizes its own increments: the first is the whole step; one whose solve fails "
+        "or needs more than `solver.increment_newton_target` Newton steps is solved again in two halves "
+        "(from the last converged state, the friction law's memory included; at most "
+        "`solver.max_increment_cuts` halvings), an easy one lets the next double, never beyond the step's "
+        "end; the rows say which were cut and why (`increment_cuts`, `cut_reason`). A step with a number of "
+        "increments keeps them exactly: a failing one is an error, never cut",
         1, check=_all(_at_least_one, _at_most(MAX_LOAD_STEPS, "increments, each a solve"))),
     Key("reference.model_fraction", "number", "the part of the body that is modelled (0.25 for a quarter "
         "model): the Hertz force is the computed resultant divided by it", 1.0, check=_fraction),
@@ -479,8 +498,12 @@ def steps_of(data, parameters, given):
                                  + _suggest(name, parameters))
         values = {name: _number(text, f"{where}.set.{name}", current) for name, text in table.items()}
         current = parameters_of({"parameters": {**data.get("parameters", {}), **_sets_so_far(out), **values}})
-        out.append({"set": values, "increments": _convert(_BY_PATH["steps.increments"], step.get("increments", 1),
-                                                          f"{where}.increments", current)})
+        increments = step.get("increments", 1)
+        if isinstance(increments, str) and increments != "auto":
+            raise InputError(f"{where}.increments must be a positive integer or \"auto\", got {brief(increments)}")
+        if increments != "auto":  # ("auto": the step sizes its own increments, see adaptive._Loop)
+            increments = _convert(_BY_PATH["steps.increments"], increments, f"{where}.increments", current)
+        out.append({"set": values, "increments": increments})
     if steps:
         given.add("steps")
     return out
