@@ -223,3 +223,14 @@ def test_progress_line_without_a_path_and_on_an_auto_step():
     fixed = dict(base, step=2, increment=3, load_time=1 + 3 / 7, max_slip=2e-3)
     assert progress_line(fixed).startswith("step 2, increment 3 of 7 (row 3):")
     assert progress_line(fixed).endswith(", max slip = 2.000e-03")
+
+
+def test_write_every_without_a_path_writes_every_nth_level_and_the_last(tmp_path):
+    out = tmp_path / "out"
+    result = run_cli(["block", "--set", "mesh.cells=[4,2]", "--quiet", "--refine", "uniform", "--levels", "4",
+                      "--write-every", "2", "--out", out])
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert sorted(p.name for p in (out / "levels").glob("*.pvtu")) == ["level_00.pvtu", "level_02.pvtu",
+                                                                        "level_03.pvtu"]
+    assert len(history(out)) == 4 and not (out / "load_path.png").exists()
+    assert "level 3" in result.stdout  # (a refinement level is still a level)

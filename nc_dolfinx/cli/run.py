@@ -6,6 +6,11 @@ files and ``levels/level_NN.pvtu``, ``solution.xdmf`` on the last level) and ``h
 levels so far. A run that fails or is interrupted keeps its finished levels, and its summary says where and
 why it stopped (``"status": "failed" | "interrupted"``); a completed run's summary says why the loop stopped
 (``stop_reason``). The user's PETSc options are checked once level 0 is solved (:mod:`petsc_options`).
+
+On a load path ([[steps]]) each row also gets the path's parameters (``param_NAME``,
+:func:`~nc_dolfinx.output.columns.path_parameters`), ``load_path.png`` is drawn beside ``convergence.png``
+(:func:`~nc_dolfinx.output.plots.load_path_plot`, against ``output.load_path_x``), and
+``output.write_every`` = n (``--write-every``) writes the files of every n-th state only (:meth:`CaseRun.written`).
 """
 import dataclasses
 import time
