@@ -74,6 +74,7 @@ from ..physics import elasticity, forms, friction
 from .geometric import geometric_term
 from .geometry import cell_diameters, diameters, facet_layers, owned_values_with_ghosts, patch_sum
 from .kink import law_residual_squared
+from .pair_terms import pair_terms
 
 __all__ = ["NAMES", "CELL_DEGREE", "CONTACT_DEGREE", "CONTACT_DEGREE_SPLIT", "Estimate", "assemble_cellwise",
            "compile_form", "estimate", "patch_sum"]
@@ -162,6 +163,10 @@ def estimate(u, fields, contact_degree=None, cell_degree=CELL_DEGREE, split_kink
     eta_2_sq = np.add(facet_terms[:, 0], eta_2_varying_g)
     eta_2_sq *= h_K
     eta_3_sq, eta_4_sq = h_K * facet_terms[:, 1], h_K * facet_terms[:, 2]
+    if fields.pairs:  # both faces of each pair of two bodies (:mod:`.pair_terms`)
+        pair_3, pair_4 = pair_terms(u, fields, fields.pair_coupling(u))
+        eta_3_sq += h_K * pair_3
+        eta_4_sq += h_K * pair_4
     zeta_sq = osc_g
     if f_sq is not None:  # a constant f equals its means f_K: no oscillation (nor patch sum)
         # (an alternating sum: kept from going below 0 by round-off)

@@ -43,10 +43,13 @@ def rebalance(msh):
     balanced = versions.create_balanced_mesh(comm, cells, x, msh)
     touched = np.unique(nodes)  # the nodes of the owned cells: where the old partition computes values
     n_balanced = balanced.topology.index_map(tdim).size_local
+    anchors = np.empty((len(msh.geometry.x), 3))
+    anchors[nodes] = msh.geometry.x[nodes].mean(axis=1)[:, None, :]  # a cell of each node: its midpoint
     move = Move(_offsets(comm, node_map.size_local), _offsets(comm, n_cells),
                 np.array(balanced.geometry.input_global_indices, dtype=np.int64),
                 np.array(balanced.topology.original_cell_index, dtype=np.int64)[:n_balanced],
-                msh.geometry.x[touched].copy(), np.array(node_map.local_to_global(touched), dtype=np.int64))
+                msh.geometry.x[touched].copy(), np.array(node_map.local_to_global(touched), dtype=np.int64),
+                anchors[touched])
     return balanced, move
 
 
@@ -56,14 +59,16 @@ class Move:
     ``node_offsets``/``cell_offsets``: the old numbering of nodes and cells by rank (rank r owned the
     numbers ``offsets[r]`` to ``offsets[r + 1] - 1``); ``node_origins``: the old number of every local node
     of the new mesh; ``cell_origins``: that of every owned cell; ``points``: the coordinates of the nodes of
-    the old owned cells of this rank, ``point_numbers`` their old numbers. The methods take the new mesh's
+    the old owned cells of this rank, ``point_numbers`` their old numbers, ``anchors`` the midpoint of an old
+    owned cell holding each (which parent cell a point belongs to where two bodies touch). The methods take the new mesh's
     communicator: a Move keeps none, since DOLFINx 0.5's ``mesh.comm`` is valid only while its mesh lives
     (the old mesh's is gone once :func:`rebalance` returns)."""
 
-    def __init__(self, node_offsets, cell_offsets, node_origins, cell_origins, points, point_numbers):
+    def __init__(self, node_offsets, cell_offsets, node_origins, cell_origins, points, point_numbers, anchors):
         self.node_offsets, self.cell_offsets = node_offsets, cell_offsets
         self.node_origins, self.cell_origins = node_origins, cell_origins
         self.points, self.point_numbers = points, point_numbers
+        self.anchors = anchors  # for each point, the midpoint of an old owned cell that holds it
 
     def cell_values(self, comm, values):
         """Values of the old owned cells (n_old_owned, ...) → those of the new owned cells."""

@@ -29,7 +29,7 @@ from dolfinx import fem, mesh as dmesh
 from .. import dolfinx_versions as versions
 from .balance import IMBALANCE_LIMIT, imbalance, rebalance
 from . import shape
-from .domain import (UNTAGGED, Domain, cell_facet_groups, dof_of_node, global_bounds, match_simplices,
+from .domain import (UNTAGGED, Domain, cell_facet_groups, distance_to_simplices, dof_of_node, global_bounds,
                      region_function, tag_from_cell_facets)
 
 _MOVES = weakref.WeakKeyDictionary()  # rebalanced child mesh -> the Move that made it (for transfer)
@@ -74,24 +74,45 @@ def _inherited(domain, parents):
 
 
 def _inherited_by_position(domain, child):
-    """0.5.2 only (no parent maps): what :func:`_inherited` gives, found by position. The region of an owned
-    child cell is its parent's at the child's midpoint; a facet of it on the boundary (a facet of one local
-    cell) lies in a boundary facet of its parent, whose group it takes (:func:`match_simplices` among the
-    tagged boundary facets of the local parent cells, any rank's tag, :func:`cell_facet_groups`)."""
+    """0.5.2 only (no parent maps): what :func:`_inherited` gives, found by position. The parent of an owned
+    child cell is the local parent cell that holds its midpoint; a facet of the child on the boundary lies in
+    one facet of that parent, the one closest to its centroid, whose group it takes (:func:`cell_facet_groups`,
+    any rank's tag). Only the parent's own facets are candidates: where two bodies touch, a boundary facet of
+    one coincides with one of the other ([[pairs]]), and a match among all boundary facets could take the
+    other body's group."""
     msh, tdim = domain.mesh, domain.tdim
     n_owned = child.topology.index_map(tdim).size_local
+    parent = _parent_cells(msh, child, n_owned)
     parent_groups = cell_facet_groups(msh, domain.facet_tags)
-    cells, local = np.nonzero(parent_groups != UNTAGGED)
-    facets = _cell_facets(msh)[cells, local]
-    nodes = versions.entities_to_geometry(msh, tdim - 1, facets)
-    simplices = msh.geometry.x[nodes.reshape(-1)][:, :tdim].reshape(len(facets), tdim, tdim)
+    parent_facets = _cell_facets(msh)[parent]                  # (n_owned, tdim + 1)
     child_facets = _cell_facets(child)[:n_owned]
     on_boundary = np.diff(child.topology.connectivity(tdim - 1, tdim).offsets)[child_facets] == 1
-    centroids = dmesh.compute_midpoints(child, tdim - 1, child_facets[on_boundary])[:, :tdim]
+    cells, local = np.nonzero(on_boundary)
+    centroids = dmesh.compute_midpoints(child, tdim - 1, child_facets[cells, local])[:, :tdim]
+    distance = np.stack([distance_to_simplices(centroids, _facet_simplices(msh, parent_facets[cells, j]))
+                         for j in range(tdim + 1)], axis=1) if len(cells) else np.zeros((0, tdim + 1))
     groups = np.full(child_facets.shape, UNTAGGED, dtype=np.int32)
-    groups[on_boundary] = match_simplices(centroids, (simplices, parent_groups[cells, local]),
-                                          1e-9 * _local_extent(msh))
-    return np.column_stack([_child_regions(domain, child), groups])
+    groups[cells, local] = parent_groups[parent[cells], np.argmin(distance, axis=1)]
+    return np.column_stack([domain.region.x.array[parent], groups])
+
+
+def _parent_cells(msh, child, n_owned):
+    """0.5.2 only: the local parent cell of each owned child cell (the one holding the child's midpoint)."""
+    tdim = child.topology.dim
+    if n_owned == 0:
+        return np.zeros(0, dtype=np.int32)
+    midpoints = dmesh.compute_midpoints(child, tdim, np.arange(n_owned, dtype=np.int32))
+    colliding = versions.colliding_cells(msh, midpoints)
+    if np.any(colliding.offsets[1:] == colliding.offsets[:-1]):
+        raise RuntimeError("internal error: a child cell lies outside the local parent mesh")
+    return colliding.array[colliding.offsets[:-1]]
+
+
+def _facet_simplices(msh, facets):
+    """The vertices (n, tdim, tdim) of local facets."""
+    tdim = msh.topology.dim
+    nodes = versions.entities_to_geometry(msh, tdim - 1, facets)
+    return msh.geometry.x[nodes.reshape(-1)][:, :tdim].reshape(len(facets), tdim, tdim)
 
 
 def _cell_facets(msh):
@@ -101,22 +122,6 @@ def _cell_facets(msh):
     msh.topology.create_connectivity(tdim, tdim - 1)
     msh.topology.create_connectivity(tdim - 1, tdim)
     return msh.topology.connectivity(tdim, tdim - 1).array.reshape(-1, tdim + 1)
-
-
-def _local_extent(msh):
-    """The largest extent along an axis of this rank's part of the mesh (1 where it has no nodes)."""
-    x = msh.geometry.x[:, :msh.geometry.dim]
-    return float(np.ptp(x, axis=0).max()) if len(x) else 1.0
-
-
-def _child_regions(domain, child):
-    """0.5.2 only: the region id of every owned child cell: its parent's (found at the child's midpoint)."""
-    tdim = child.topology.dim
-    n_owned = child.topology.index_map(tdim).size_local
-    if len(domain.cell_groups) == 1:  # one region: nothing to locate
-        return np.full(n_owned, next(iter(domain.cell_groups.values())))
-    midpoints = dmesh.compute_midpoints(child, tdim, np.arange(n_owned, dtype=np.int32))
-    return np.rint(evaluate(domain.region, midpoints)[:, 0])
 
 
 def _plaza(domain, edges):
@@ -163,13 +168,14 @@ def _tie_breaker(x, low, high):
     return TIE_BREAKING_MOVE * extent * np.sin(phase @ _FREQUENCIES[:dim, :dim].T + np.arange(1, dim + 1))
 
 
-def evaluate(function, points):
-    """Values of ``function`` at ``points`` (n, 3), each of which must lie in a local cell of its mesh."""
+def evaluate(function, points, anchors=None):
+    """Values of ``function`` at ``points`` (n, 3), each of which must lie in a local cell of its mesh (the
+    cell that holds its ``anchor``, if given)."""
     msh = function.function_space.mesh
     points = np.ascontiguousarray(points, dtype=np.float64)
     if len(points) == 0:
         return np.zeros((0, function.function_space.dofmap.index_map_bs))
-    colliding = versions.colliding_cells(msh, points)
+    colliding = versions.colliding_cells(msh, points if anchors is None else np.ascontiguousarray(anchors))
     offsets = colliding.offsets
     if np.any(offsets[1:] == offsets[:-1]):
         raise RuntimeError("internal error: a child point lies outside the local parent mesh")
@@ -195,7 +201,11 @@ def transfer(function, space):
     in_owned_cell = np.zeros(space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts, bool)
     in_owned_cell[versions.cell_dofs(space.dofmap)[:n_cells]] = True
     dofs = np.flatnonzero(in_owned_cell)
-    out.x.array.reshape(-1, bs)[dofs] = _values_at_child_vertices(function, _nested_dof_coordinates(space)[dofs])
+    x = _nested_dof_coordinates(space)
+    anchors = np.empty_like(x)  # for each dof, the midpoint of an owned child cell holding it
+    cell_dofs = versions.cell_dofs(space.dofmap)[:n_cells]
+    anchors[cell_dofs] = x[cell_dofs].mean(axis=1)[:, None, :]
+    out.x.array.reshape(-1, bs)[dofs] = _values_at_child_vertices(function, x[dofs], anchors[dofs])
     count.x.array.reshape(-1, bs)[dofs] = 1.0
     for fn in (out, count):
         fn.x.scatter_reverse(versions.SCATTER_ADD)
@@ -224,15 +234,18 @@ def _moved(function, space, move):
     the move (exact, as above), then every local node's value fetched from its old owner. A P1 dof is a
     node of the mesh: the cells' dofs and nodes are listed in the same order."""
     out = fem.Function(space, name=function.name)
-    values = move.node_values(space.mesh.comm, _values_at_child_vertices(function, move.points))
+    values = move.node_values(space.mesh.comm, _values_at_child_vertices(function, move.points, move.anchors))
     out.x.array.reshape(-1, space.dofmap.index_map_bs)[dof_of_node(space)] = values
     return out
 
 
-def _values_at_child_vertices(function, points):
+def _values_at_child_vertices(function, points, anchors):
     """P1 ``function`` at ``points`` (n, 3) that are vertices or edge midpoints of its local mesh.
 
-    A point that matches no vertex or midpoint (none should) is located in the mesh instead.
+    A point that matches no vertex or midpoint is evaluated in the parent cell that holds its ``anchor``
+    (the midpoint of a child cell holding it, strictly inside one parent cell): where two bodies touch, two
+    vertices share a position, nothing is matched (:func:`_match_points`), and the anchor tells which body's
+    value the point takes.
     """
     V = function.function_space
     msh, bs = V.mesh, V.dofmap.index_map_bs
@@ -255,7 +268,7 @@ def _values_at_child_vertices(function, points):
     result = np.empty((len(points), bs))
     result[found] = known_values[index[found]]
     if not np.all(found):
-        result[~found] = evaluate(function, points[~found])
+        result[~found] = evaluate(function, points[~found], anchors[~found])
     return result
 
 

@@ -24,7 +24,11 @@ from ..problem.expressions import to_ufl, to_ufl_vector, values_at
 from ..problem.problem import check_exponent, check_reference, check_vector_sizes
 from ..problem.reading import check_file
 from ..problem.schema import FREE, ROLES
+from ..pairs.binding import bind_pairs
 from . import elasticity, friction, rigid
+
+
+NO_GROUP = 2 ** 30 + 1  # a facet tag no facet has (UFL wants ids >= 0): the measure of an empty role
 
 
 @dataclass
@@ -50,6 +54,8 @@ class Fields:
     boundary_values: list = field(default_factory=list)  # (Function, fem.Expression) of each prescribed condition
     free_motions: tuple = None  # rigid motions only the foundation can hold: (coefficients (k, m), centre, scale)
     friction: object = None  # friction.FrictionLaw on Γ_C, or None: frictionless
+    pairs: list = field(default_factory=list)  # [[pairs]] on this mesh (:class:`nc_dolfinx.pairs.coupling.Pair`)
+    bodies: object = None   # with pairs: the mesh's bodies (:class:`nc_dolfinx.pairs.binding.Bodies`)
     notes: list = field(default_factory=list)          # remarks for the summary (not errors)
     warnings: list = field(default_factory=list)       # what the user may not have meant (see bind)
 
@@ -59,8 +65,20 @@ class Fields:
         return self.domain.mesh.geometry.dim
 
     def ds_of(self, role):
-        """Measure over all facets of a role ('dirichlet', 'neumann', 'contact', 'symmetry')."""
-        return self.ds(self.ids[role])  # a tuple of ids: the union of the groups
+        """Measure over all facets of a role ('dirichlet', 'neumann', 'contact', 'symmetry'); a role with no
+        group (Γ_C when [[pairs]] are the only contacts) integrates over no facet."""
+        return self.ds(self.ids[role] or NO_GROUP)  # a tuple of ids: the union of the groups
+
+    def pair_coupling(self, u):
+        """The [[pairs]]' term of (7) for the displacement ``u`` (:class:`~nc_dolfinx.pairs.coupling.PairCoupling`),
+        made once per mesh: the projection between the faces is the mesh's, whoever asks (solver, estimator,
+        output)."""
+        from ..pairs.coupling import PairCoupling  # (pairs import physics: made on demand)
+        made = getattr(self, "_pair_coupling", None)
+        if made is None or made.u.function_space != u.function_space:
+            made = self._pair_coupling = PairCoupling(u, self)
+        made.u = u
+        return made
 
     def sigma(self, u):
         """σ(u) = 2μ ε(u) + λ tr ε(u) I with this problem's material (§2)."""
@@ -140,14 +158,15 @@ def bind(problem, domain):
     ids = _role_ids(problem, domain)
     counts = _facet_counts(domain)
     for role, symbol in (("dirichlet", "Γ_D"), ("contact", "Γ_C")):
-        if role == "dirichlet" and not values["mesh"]["dirichlet"]:
-            continue  # no Γ_D: the rigid-motion check decides whether the body is held
+        if not values["mesh"][role] and (role == "dirichlet" or values["pairs"]):
+            continue  # no Γ_D: the rigid-motion check decides whether the body is held; no Γ_C: pairs only
         if sum(counts.get(i, 0) for i in ids[role]) == 0:
             raise InputError(f"{symbol} ({role}) is empty: no boundary facet in groups "
                              f"{values['mesh'][role]}")
     listed_neumann = ids["neumann"]  # a traction given for all of Γ_N applies to these only
     # Groups of the mesh in no role, and untagged facets, are traction-free Neumann boundary.
-    in_roles = set(sum(ids.values(), ()))
+    in_roles = set(sum(ids.values(), ())) | {_group_id(domain, name, f"pairs[{k}].faces")
+                                              for k, pair in enumerate(values["pairs"], 1) for name in pair["faces"]}
     free = tuple(i for i in (UNTAGGED, *domain.facet_groups.values())
                  if i not in in_roles and counts.get(i, 0))
     ids["neumann"] = tuple(sorted(set(ids["neumann"] + free)))
@@ -165,7 +184,10 @@ def bind(problem, domain):
     fields.symmetry_axes = {i: _symmetry_axis(domain, i, _name(domain, i)) for i in ids["symmetry"]
                             if counts.get(i, 0)}
     fields.u_D = _prescribed_displacements(problem, domain, ids["dirichlet"])
-    _check_rigid_motions_held(fields)
+    if values["pairs"]:
+        bind_pairs(problem, domain, fields, _group_id, counts)  # (each body held by its own supports)
+    else:
+        _check_rigid_motions_held(fields)
     unassigned = [f"'{_name(domain, i)}'" for i in free if i != UNTAGGED]
     if unassigned:
         fields.warnings.append(

@@ -124,6 +124,9 @@ class NonlinearForms:
     consistent_jacobian: ufl.Form = None
     # Added to j_t_jacobian on some of the passes' Newton steps (friction.slip_stiffening, newton._newton_jacobian)
     slip_stiffening: ufl.Form = None
+    # A term of (7) that is not a UFL form: contact between two bodies ([[pairs]], nc_dolfinx.pairs.coupling),
+    # with widen(K, bcs), add_residual(vector), add_jacobian(matrix), energy() at the current u, destroy()
+    operator_term: object = None
 
     @property
     def contact_residual(self):
@@ -136,9 +139,10 @@ class NonlinearForms:
         return self.j_n_jacobian if self.j_t is None else self.j_n_jacobian + self.j_t_jacobian
 
 
-def normal_compliance_forms(u, fields, c_n_scale=None):
+def normal_compliance_forms(u, fields, c_n_scale=None, operator_term=None):
     """The forms of (7) on the space of ``u``: a, L, j_n, its Jacobian and the contact part of Π
-    (``c_n_scale``: a fem.Constant s, the law's coefficient then s·c_n)."""
+    (``c_n_scale``: a fem.Constant s, the law's coefficient then s·c_n); with [[pairs]], the pairs' term
+    (``operator_term``: one already made for this u, else made here: :class:`~nc_dolfinx.pairs.coupling.PairCoupling`)."""
     V = u.function_space
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
     n = ufl.FacetNormal(fields.domain.mesh)
@@ -167,12 +171,14 @@ def normal_compliance_forms(u, fields, c_n_scale=None):
     # (the law is linear where in contact: see NonlinearForms. Not with friction: the creeping check these forms
     # enable took the stick zone's creeping for the contact zone's, 121 Newton steps instead of 65 on 1e4-1-mu0.3
     # of benchmarks/family.py)
-    if float(m.value) == 1.0 and pieces.j_t is None:
+    if fields.pairs:
+        pieces.operator_term = operator_term or fields.pair_coupling(u)
+    if float(m.value) == 1.0 and pieces.j_t is None and not fields.pairs:  # (the bilateral predictor: the foundation's)
         pieces.bilateral_jacobian = mass
         pieces.gap_load = c_n * fields.gap * normal_displacement(v, n) * dC
         pieces.separation = positive_part(fields.gap - normal_displacement(u, n)) * dC
     pieces.c_n_mass = mass
-    pieces.with_c_n_scale = lambda scale: normal_compliance_forms(u, fields, scale)
+    pieces.with_c_n_scale = lambda scale: normal_compliance_forms(u, fields, scale, pieces.operator_term)
     return pieces
 
 

@@ -12,6 +12,7 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 
 from .. import dolfinx_versions as versions
+from ..pairs.quantities import pair_quantities
 from . import elasticity, forms, friction
 
 ERROR_DEGREE = 8
@@ -59,6 +60,7 @@ def solution_quantities(u, fields):
         "applied_load": forces.applied,
         **{f"reaction_{name}": force for name, force in forces.reactions.items()},
         **frictional,
+        **(pair_quantities(u, fields) if fields.pairs else {}),
         "force_balance": _balance(balanced),
     }
 
@@ -137,7 +139,15 @@ def residual_forces(u, fields):
     def resultant(values, sign=1.0):
         return [sign * float(x) for x in msh.comm.allreduce(values.sum(axis=0), MPI.SUM)]
 
+    if pieces.operator_term is not None:  # [[pairs]]: their term of the residual (internal forces between bodies)
+        vec = versions.petsc_vec(u).duplicate()
+        vec.zeroEntries()
+        pieces.operator_term.add_residual(vec)
+        blocks["pairs"] = _owned_blocks(vec, n_owned, bs)
+        vec.destroy()
     r = blocks["internal"] + blocks["contact"] - blocks["load"]
+    if "pairs" in blocks:
+        r += blocks["pairs"]
     if "friction" in blocks:
         r += blocks["friction"]
     taken = np.zeros_like(r, dtype=bool)

@@ -247,10 +247,34 @@ def _check_consistency(values, given):
         check_exponent(contact["m_n"], 3)
     _check_friction(contact, given, values["parameters"])
 
+    _check_pairs(values, roles, dim)
+
     reference = values["reference"]
     if reference["hertz"] and reference["radius"] is None:
         raise InputError("reference.hertz needs reference.radius")
     check_reference(values, dim)
+
+
+def _check_pairs(values, roles, dim):
+    """[[pairs]]: each face in no other role and in one pair; c_n >= 0; something to contact at all."""
+    pairs = values["pairs"]
+    if not values["mesh"]["contact"] and not pairs:
+        raise InputError("missing required key 'mesh.contact': the boundary groups of Γ_C on the foundation "
+                         "(or [[pairs]] of faces of two bodies)")
+    seen = {}
+    for number, pair in enumerate(pairs, 1):
+        for group in pair["faces"]:
+            if group in roles:
+                raise InputError(f"boundary group {group!r} is in both mesh.{roles[group]} and pairs[{number}].faces")
+            if group in seen:
+                raise InputError(f"boundary group {group!r} is a face of pairs[{seen[group]}] and pairs[{number}]: "
+                                 "a face belongs to one pair")
+            seen[group] = number
+        value = pair["c_n"]
+        if not (isinstance(value, str) and uses_coordinates(value)) and to_float(value, values["parameters"]) < 0:
+            raise InputError(f"pairs[{number}].c_n must be >= 0, got {value}")
+        if dim == 3:
+            check_exponent(pair["m_n"], 3)
 
 
 def _check_friction(contact, given, parameters):

@@ -42,7 +42,7 @@ def apply_overrides(data, overrides):
                              "(e.g. 'adapt.refine=none'; through the API also adapt(problem, refine='none'))")
         if not sep or not key.strip():
             raise InputError(f"--set expects KEY=VALUE, got '{brief_text(item)}'")
-        if "." not in key.strip() and key.strip() not in ("title", "description", "steps"):
+        if "." not in key.strip() and key.strip() not in ("title", "description", "steps", "pairs"):
             raise InputError(f"--set {brief_text(key.strip())}: give section.key, e.g. contact.m_n=2")
         set_dotted(data, key.strip(), parse_value(value.strip()))
     return data

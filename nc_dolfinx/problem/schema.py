@@ -227,11 +227,27 @@ KEYS = [
         "end; the rows say which were cut and why (`increment_cuts`, `cut_reason`). A step with a number of "
         "increments keeps them exactly: a failing one is an error, never cut",
         1, check=_all(_at_least_one, _at_most(MAX_LOAD_STEPS, "increments, each a solve"))),
+    # [[pairs]]
+    Key("pairs.faces", "groups", "contact between two deformable bodies: a boundary group of one body and one of "
+        "the other (`faces = [\"upper_face\", \"lower_face\"]`), each body a connected part of the mesh",
+        REQUIRED),
+    Key("pairs.c_n", "expression", "the pair's c_n ≥ 0 in σ_n = −c_n (u_n − g_0)_+^m_n, u_n the normal jump "
+        "(u_A(x) − u_B(Πx))·ν_A and g_0 the distance to the other face along ν_A", REQUIRED),
+    Key("pairs.m_n", "number", "the pair's exponent m_n ≥ 1", 1.0, check=_at_least_one),
+    Key("pairs.offset", "number", "added to the measured gap g_0 (> 0: the faces are that much further apart; "
+        "< 0: an interference)", 0.0),
+    Key("pairs.passes", "choice", "`two`: each face's quadrature points are projected onto the other, each "
+        "pass weighted ½ (unbiased: passes the contact patch test); `one`: the first face's only", "two",
+        ("two", "one")),
+    Key("pairs.quadrature_degree", "integer", "the Gauss rule on each facet of the faces (default: 8 in 2D, "
+        "6 in 3D)", check=_at_least_one),
+    Key("pairs.search_distance", "number", "points of one face farther than this from the other face take no "
+        "part in the pair, and their number is reported (default: every point takes part)", check=_positive),
     Key("reference.model_fraction", "number", "the part of the body that is modelled (0.25 for a quarter "
         "model): the Hertz force is the computed resultant divided by it", 1.0, check=_fraction),
 ]
 SECTIONS = ("title", "description", "parameters", "mesh", "material", "loads", "contact", "exact", "adapt",
-            "solver", "estimator", "reference", "steps")
+            "solver", "estimator", "reference", "steps", "pairs")
 _BY_PATH = {key.path: key for key in KEYS}
 ROLES = ("dirichlet", "neumann", "contact", "symmetry")
 FREE = "free"  # a component of loads.u_D left free (a roller)
@@ -509,6 +525,44 @@ def steps_of(data, parameters, given):
     return out
 
 
+PAIR_KEYS = ("faces", "c_n", "m_n", "offset", "passes", "quadrature_degree", "search_distance")
+MAX_PAIRS = 100
+# Keys required of a body on the foundation, optional when [[pairs]] are its only contacts (their defaults then)
+WITHOUT_FOUNDATION = {"mesh.contact": [], "contact.c_n": 0.0, "contact.m_n": 1.0}
+
+
+def pairs_of(data, parameters, given):
+    """[[pairs]]: contact between two deformable bodies, a list of {key: value} (PAIR_KEYS, defaults
+    filled in; empty: none)."""
+    pairs = data.get("pairs", [])
+    if not isinstance(pairs, list) or not all(isinstance(pair, dict) for pair in pairs):
+        raise InputError(f"pairs must be an array of tables ([[pairs]] in TOML), got {brief(pairs)}")
+    if len(pairs) > MAX_PAIRS:
+        raise InputError(f"pairs has {len(pairs)} pairs: at most {MAX_PAIRS}")
+    out = []
+    for number, pair in enumerate(pairs, 1):
+        where = f"pairs[{number}]"
+        for name in pair:
+            if name not in PAIR_KEYS:
+                raise InputError(f"unknown key '{where}.{brief_text(name)}'" + _suggest(name, PAIR_KEYS, where + ".{}"))
+        values = {}
+        for name in PAIR_KEYS:
+            key = _BY_PATH[f"pairs.{name}"]
+            if name in pair:
+                values[name] = _convert(key, pair[name], f"{where}.{name}", parameters)
+            elif key.required:
+                raise InputError(f"missing required key '{where}.{name}'")
+            else:
+                values[name] = _copy(key.default)
+        if len(values["faces"]) != 2 or values["faces"][0] == values["faces"][1]:
+            raise InputError(f"{where}.faces must name two different boundary groups, one on each body, "
+                             f"got {brief(values['faces'])}")
+        out.append(values)
+    if pairs:
+        given.add("pairs")
+    return out
+
+
 def _sets_so_far(steps):
     """Every parameter set by ``steps``, at the value the last of them gave it."""
     return {name: value for step in steps for name, value in step["set"].items()}
@@ -550,6 +604,9 @@ def validate(data):
         if section == "steps":
             values[section] = steps_of(data, parameters, given)
             continue
+        if section == "pairs":
+            values[section] = pairs_of(data, parameters, given)
+            continue
         if section in ("title", "description"):
             if section in data:
                 values[section] = _convert(_BY_PATH[section], data[section], section, parameters)
@@ -558,12 +615,15 @@ def validate(data):
         table = data.get(section, {})
         if not isinstance(table, dict):
             raise InputError(f"[{section}] must be a table, got {table!r}")
-        values[section] = _section(section, table, parameters, given)
+        values[section] = _section(section, table, parameters, given,
+                                   WITHOUT_FOUNDATION if data.get("pairs") else {})
     return values, frozenset(given)
 
 
-def _section(prefix, table, parameters, given):
-    """Convert one table and fill the defaults of its keys."""
+def _section(prefix, table, parameters, given, optional=None):
+    """Convert one table and fill the defaults of its keys (``optional``: required keys that are not, with
+    their defaults)."""
+    optional = optional or {}
     out = {}
     for name, value in table.items():
         path = f"{prefix}.{name}"
@@ -590,10 +650,13 @@ def _section(prefix, table, parameters, given):
     for key in _keys_below(prefix):
         name = key.path.split(".")[-1]
         if name != "*" and name not in out:
-            if key.required:
+            if key.path in optional:
+                out[name] = _copy(optional[key.path])
+            elif key.required:
                 where = f"'{prefix}.{name}'" if "*" in key.path else f"'{key.path}'"
                 raise InputError(f"missing required key {where}" + _required_hint(key))
-            out[name] = _copy(key.default)
+            else:
+                out[name] = _copy(key.default)
     return out
 
 
@@ -632,7 +695,7 @@ def _copy(value):
 def reference_markdown():
     """The key reference as Markdown (for the user guide): one table per section."""
     lines = []
-    groups = [("top level", ("title", "description"))] + [(f"[[{s}]]" if s == "steps" else f"[{s}]", (s,))
+    groups = [("top level", ("title", "description"))] + [(f"[[{s}]]" if s in ("steps", "pairs") else f"[{s}]", (s,))
                                                          for s in SECTIONS[2:]]
     for heading, sections in groups:
         keys = [k for k in KEYS if k.kind != "table" and k.path.split(".")[0] in sections]

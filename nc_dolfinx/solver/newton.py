@@ -194,6 +194,9 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         bulk = fem.form(forms.a)
         self.K = fem_petsc.assemble_matrix(bulk, bcs=self.bcs)
         self.K.assemble()
+        self.operator_term = forms.operator_term  # (a term of (7) beside the forms: its sparsity joins K's)
+        if self.operator_term is not None:
+            self.K = self.operator_term.widen(self.K, self.bcs)
         self.load = fem_petsc.assemble_vector(fem.form(forms.L))
         versions.lift(self.load, bulk, self.bcs)
         self.load.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -294,6 +297,8 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
             local.set(0.0)
         fem_petsc.assemble_vector(self.contact, self.j_n)
         self.contact.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self.operator_term is not None:
+            self.operator_term.add_residual(self.contact)
         self.zero_dirichlet_rows(self.contact)
         return self.contact
 
@@ -312,7 +317,8 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
     def _contact_energy(self, x):
         """Π's Γ_C part at x, ∫_Γ_C c_n/(m_n+1) (x_n − g_0)_+^{m_n+1}."""
         self._update(x)
-        return self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
+        energy = self.comm.allreduce(fem.assemble_scalar(self.contact_energy), op=MPI.SUM)
+        return energy if self.operator_term is None else energy + self.operator_term.energy()
 
     def _precheck(self, x, y):
         """Before SNES steps to x − λy: the step's Dirichlet entries set to zero, then (``line_minimisation``)
@@ -482,6 +488,8 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         self.K.copy(matrix, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         fem_petsc.assemble_matrix(matrix, contact_form, bcs=self.bcs)
         matrix.assemble()
+        if self.operator_term is not None:
+            self.operator_term.add_jacobian(matrix)
 
     def _rebuild_preconditioner(self, A):
         """P = A; PETSc rebuilds the preconditioner at the next Krylov solve (while P is left untouched it
@@ -807,3 +815,4 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         owned += [self.P] if self.P is not self.K else []
         for obj in owned + ([self.load_abs] if self.load_abs is not None else []):
             obj.destroy()
+

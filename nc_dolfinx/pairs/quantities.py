@@ -1,0 +1,36 @@
+"""What a solution says about each pair of two bodies: the force between them, its contact zone and peak.
+
+The force on the body of a pair's first face is what the residual of (7) carries (its resultant over that
+body's dofs): with the rows of :mod:`.coupling`, −Σ w_q p_q ν_A over the first face's points plus
+Σ w_q p_q ν_B over the second face's (Σ_i λ_i = 1 at every point), so that reactions, loads and pair forces
+balance body by body to the solver's tolerance; the force on the other body is its opposite.
+"""
+import numpy as np
+from mpi4py import MPI
+
+
+def pair_quantities(u, fields):
+    """Per pair k (1-based): ``pair{k}_force`` (the vector the second face's body exerts on the first's),
+    ``pair{k}_contact_length`` (2D) or ``_contact_area`` (3D) (the measure of {p > 0} on the first face),
+    ``pair{k}_max_pressure`` and ``pair{k}_max_penetration`` (at the integration points of both faces)."""
+    coupling = fields.pair_coupling(u)
+    pressure, penetration = coupling.pressure(), np.maximum(coupling.penetration(), 0.0)
+    comm, gdim = fields.domain.comm, fields.dim
+    out = {}
+    for pair in fields.pairs:
+        force, measure, peak, deepest = np.zeros(gdim), 0.0, 0.0, 0.0
+        for rows, where in coupling.by_rows():
+            if rows.pair is not pair:
+                continue
+            p = pressure[where]
+            force += (-1.0 if rows.side == 0 else 1.0) * (rows.w * p) @ rows.normal
+            if rows.side == 0:
+                measure += float(rows.measure[p > 0].sum())
+            peak = max(peak, float(p.max(initial=0.0)))
+            deepest = max(deepest, float(penetration[where].max(initial=0.0)))
+        k = pair.number
+        out[f"pair{k}_force"] = [float(f) for f in comm.allreduce(force, op=MPI.SUM)]
+        out[f"pair{k}_contact_{'length' if gdim == 2 else 'area'}"] = comm.allreduce(measure, op=MPI.SUM)
+        out[f"pair{k}_max_pressure"] = comm.allreduce(peak, op=MPI.MAX)
+        out[f"pair{k}_max_penetration"] = comm.allreduce(deepest, op=MPI.MAX)
+    return out
