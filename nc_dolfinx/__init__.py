@@ -54,6 +54,7 @@ from .physics.forms import CONTACT_QUADRATURE_DEGREE, contact_measure, contact_p
 from .physics.friction import slip_increment, tangential_traction
 from .physics.slip_state import SlipState, spring_stretch
 from .physics.quantities import ERROR_DEGREE, contact_projection, errors, integrate, solution_quantities
+from .pairs.quantities import pair_pressure, pair_quantities
 from .physics.reference import compare_with_reference, hertz_line_contact, hertz_sphere_contact
 from .problem.cases import case_names, case_path, case_titles
 from .problem.problem import Problem, load_problem
@@ -76,7 +77,7 @@ __all__ = [
     "Fields", "bind", "Solution", "solve",
     "Estimate", "estimate", "mark", "refine", "transfer", "resolve_shapes", "snap",
     "AdaptSettings", "Level", "Result", "adapt",
-    "solution_quantities", "errors", "integrate", "contact_projection",
+    "solution_quantities", "errors", "integrate", "contact_projection", "pair_quantities", "pair_pressure",
     "lame", "sigma", "normal_stress", "contact_pressure", "contact_measure", "penetration", "slip_increment",
     "tangential_traction", "SlipState", "spring_stretch",
     "assemble_cellwise", "patch_sum", "hertz_line_contact", "hertz_sphere_contact", "compare_with_reference",

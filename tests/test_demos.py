@@ -23,6 +23,7 @@ EXPECTED = {
     "demo_parameter_study.py": (7, ["parameter_study.png"]),
     "demo_gmsh_geometry.py": (6, ["plate.png", "plate.msh"]),
     "demo_3d.py": (4, ["block_3d.png"]),
+    "demo_two_bodies.py": (4, ["two_cylinders_pressure.png"]),
 }
 TIMEOUT = 400  # seconds for one run; a hang fails the test instead of blocking the suite
 

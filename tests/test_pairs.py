@@ -219,3 +219,53 @@ def test_points_beyond_the_search_distance_are_reported(tmp_path):
     assert "have no facet of" not in rows["all"][0]
     assert "points of 'upper_contact' have no facet of 'lower_contact' within search_distance 0.01" in rows["near"][0]
     assert rows["near"][1]["pair1_force"] == pytest.approx(rows["all"][1]["pair1_force"], rel=1e-12)
+
+
+def block_file(path, prefix, y0, h):
+    """One block [0, 1] x [y0, y0 + 0.5] meshed alone (size h), groups PREFIX_face (the side at y = 0.5),
+    PREFIX_left, PREFIX_end (its other horizontal side), PREFIX_right, cells PREFIX."""
+    import gmsh
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(prefix)
+        gmsh.model.occ.addRectangle(0, y0, 0, 1, 0.5)
+        gmsh.model.occ.synchronize()
+        for tag, (_, curve) in enumerate(gmsh.model.getEntities(1), 1):
+            x, y, _ = gmsh.model.occ.getCenterOfMass(1, curve)
+            side = "face" if abs(y - 0.5) < 1e-9 else "left" if x < 1e-9 else "right" if x > 1 - 1e-9 else "end"
+            gmsh.model.addPhysicalGroup(1, [curve], tag)
+            gmsh.model.setPhysicalName(1, tag, f"{prefix}_{side}")
+        gmsh.model.addPhysicalGroup(2, [1], 1)
+        gmsh.model.setPhysicalName(2, 1, prefix)
+        gmsh.option.setNumber("Mesh.CharacteristicLengthMax", h)
+        gmsh.model.mesh.generate(2)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+def test_bodies_meshed_apart_in_two_files(tmp_path):
+    """mesh.file as a list: each body its own file (and its own mesh size), read into one mesh; the patch
+    test holds across them as in one file."""
+    block_file(tmp_path / "lower.msh", "lower", 0.0, 1 / 5)
+    block_file(tmp_path / "upper.msh", "upper", 0.5, 1 / 7)
+    problem = tmp_path / "apart.toml"
+    problem.write_text(write_stacked(tmp_path, "x.msh", {}).read_text()
+                       .replace('file = "x.msh"', 'file = ["lower.msh", "upper.msh"]')
+                       .replace('dirichlet = ["bottom", "top"]', 'dirichlet = ["lower_end", "upper_end"]')
+                       .replace('bottom = ["free", "0"]', 'lower_end = ["free", "0"]')
+                       .replace('top = ["free", "-d"]', 'upper_end = ["free", "-d"]')
+                       .replace("c_n = 1.0", f"c_n = {C_N}"))
+    result = run_cli([problem, "--out", tmp_path / "out"], nprocs=2)
+    assert result.returncode == 0, result.stderr
+    row = json.loads((tmp_path / "out" / "history.json").read_text())[0]
+    assert row["pair1_force"][1] == pytest.approx(exact_pressure(2), rel=1e-12)
+    assert row["pair1_max_pressure"] == pytest.approx(exact_pressure(2), rel=1e-12)
+    clash = tmp_path / "clash.toml"
+    block_file(tmp_path / "again.msh", "lower", 0.5, 1 / 7)
+    clash.write_text(problem.read_text().replace('"upper.msh"', '"again.msh"'))
+    from test_bad_input import assert_bad_input, cli
+    out = tmp_path / "clash"
+    assert_bad_input(cli([clash, "--out", out, "--quiet"], nprocs=2), "both have a group named 'lower", out, 2)

@@ -130,6 +130,7 @@ class CaseRun:
         msh = u.function_space.mesh
         stress, von_mises, pressure = postprocess.postprocess_fields(u, level.fields)
         frictional = postprocess.friction_fields(u, level.fields)
+        paired, body = postprocess.pair_fields(u, level.fields)
         name = f"level_{level.number:02d}"
         n_owned = msh.topology.index_map(msh.topology.dim).size_local
         region = vtu.dg0_values(level.fields.domain.region, n_owned)[:, 0].astype(np.int32)
@@ -137,11 +138,12 @@ class CaseRun:
             files.on_rank0(self.comm, lambda: (stage / "levels").mkdir(), stage / "levels")
             postprocess.write_xdmf(self.comm, stage / "levels" / f"{name}.xdmf", msh, [u, *est.fields.values()])
             vtu.write(self.comm, stage / "levels", name, {"displacement": u, "contact_pressure": pressure,
-                                                          **{f.name: f for f in frictional}},
-                      {"stress": stress, "von_mises": von_mises, **est.fields}, {"region": region})
+                                                          **{f.name: f for f in frictional + paired}},
+                      {"stress": stress, "von_mises": von_mises, **est.fields},
+                      {"region": region, **({"body": body} if body is not None else {})})
             if level.stop_reason:  # the last level: the final solution with every field
                 postprocess.write_xdmf(self.comm, stage / "solution.xdmf", msh,
-                                       [u, stress, von_mises, pressure, *frictional, *est.fields.values()])
+                                       [u, stress, von_mises, pressure, *frictional, *paired, *est.fields.values()])
         if level.stop_reason:
             self.solution_level = level.number
         if "load_time" not in level.row:  # a time step per level, or, on a load path, per state

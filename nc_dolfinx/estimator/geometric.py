@@ -1,4 +1,4 @@
-"""The geometric term: how far the discrete boundary Γ_C ∪ Γ_N lies from the true one.
+"""The geometric term: how far the discrete boundary Γ_C ∪ Γ_N (and the faces of [[pairs]]) lies from the true one.
 
 Definition 5 estimates the error of (7) *on the mesh's own body*: on a faceted approximation Ω_h of a curved
 body Ω its η measures u_h against the solution on Ω_h, and falls to zero while u_h converges to the wrong body
@@ -41,7 +41,8 @@ def geometric_term(u, fields):
     msh, comm = domain.mesh, domain.comm
     tdim = msh.topology.dim
     cells_map = msh.topology.index_map(tdim)
-    groups = tuple(fields.ids["contact"]) + tuple(fields.ids["neumann"])
+    groups = tuple(fields.ids["contact"]) + tuple(fields.ids["neumann"]) + tuple(i for pair in fields.pairs
+                                                                               for i in pair.ids)
     tags = domain.facet_tags
     on = np.isin(tags.values, groups)
     facets = tags.indices[on]

@@ -79,7 +79,9 @@ def _file(path):
 
 
 def from_gmsh(comm, path):
-    """Read a gmsh ``.msh`` file with physical groups (names become group names).
+    """Read a gmsh ``.msh`` file with physical groups (names become group names); a list of files (bodies
+    meshed apart, e.g. for [[pairs]]) is read into one mesh, each file's nodes, cells and groups as they are
+    (:func:`_merged`).
 
     gmsh reads whatever it does not recognise as a *script* (a .geo file), and a script can run commands
     (``SystemCall``, ``Shell``); so only a file that gmsh reads as a mesh is handed to it. gmsh's
@@ -97,12 +99,60 @@ def from_gmsh(comm, path):
     with gmsh_session() as gmsh:
         gmsh.option.setNumber("General.Terminal", 0)
         error = None
+        paths = list(path) if isinstance(path, (list, tuple)) else [path]
         if comm.rank == 0:
-            error = _not_a_mesh_file(path)
-            if error is None:
-                error = _open_mesh_file(path)
+            error = _merged(paths) if len(paths) > 1 else _not_a_mesh_file(path) or _open_mesh_file(path)
         _raise_everywhere(comm, error, 0)
-        return _to_domain(comm, gmsh.model, 0, f"mesh file '{_file(path)}'")
+        where = f"mesh file '{_file(path)}'" if len(paths) == 1 else \
+            f"mesh files {', '.join(repr(_file(p)) for p in paths)}"
+        return _to_domain(comm, gmsh.model, 0, where)
+
+
+def _merged(paths):
+    """The files' meshes as one gmsh model (rank 0): each file read in turn (checked as one mesh file), its
+    physical groups' elements and its nodes kept, numbered after the files before it, each group one
+    discrete entity; a group name in two files is an error. None, or the error as one line."""
+    gmsh = import_gmsh()
+    parts, seen = [], {}
+    for path in paths:
+        error = _not_a_mesh_file(path) or _open_mesh_file(path)
+        if error:
+            return error
+        model = gmsh.model
+        tags, x, _ = model.mesh.getNodes()
+        groups = []
+        for dim, tag in model.getPhysicalGroups():
+            name = model.getPhysicalName(dim, tag) or str(tag)
+            if (dim, name) in seen:
+                return (f"mesh files '{_file(seen[dim, name])}' and '{_file(path)}' both have a group named "
+                        f"'{name}': name the groups of bodies meshed apart differently")
+            seen[dim, name] = path
+            blocks = [model.mesh.getElements(dim, entity) for entity in model.getEntitiesForPhysicalGroup(dim, tag)]
+            groups.append((dim, name, [(t, n) for types, _, nodes in blocks for t, n in zip(types, nodes)]))
+        parts.append((np.asarray(tags, dtype=np.int64), np.asarray(x), groups))
+    gmsh.clear()
+    gmsh.model.add("merged")
+    node_offset, element_offset, entity, group_tag = 0, 0, 0, 0
+    for tags, x, groups in parts:
+        order = np.argsort(tags)
+        nodes_placed = False
+        for dim, name, blocks in sorted(groups, key=lambda g: -g[0]):  # cells first: they hold the nodes
+            entity += 1
+            gmsh.model.addDiscreteEntity(dim, entity)
+            if not nodes_placed:
+                gmsh.model.mesh.addNodes(dim, entity, list(tags[order] + node_offset), list(x.reshape(-1, 3)[order].ravel()))
+                nodes_placed = True
+            for element_type, nodes in blocks:
+                nodes = np.asarray(nodes, dtype=np.int64) + node_offset
+                count = len(nodes) // gmsh.model.mesh.getElementProperties(element_type)[3]
+                gmsh.model.mesh.addElementsByType(entity, element_type,
+                                                  list(range(element_offset + 1, element_offset + count + 1)), list(nodes))
+                element_offset += count
+            group_tag += 1
+            gmsh.model.addPhysicalGroup(dim, [entity], group_tag)
+            gmsh.model.setPhysicalName(dim, group_tag, name)
+        node_offset += int(tags.max()) if len(tags) else 0
+    return None
 
 
 def _not_a_mesh_file(path):

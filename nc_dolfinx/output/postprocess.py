@@ -51,3 +51,31 @@ def friction_fields(u, fields):
     in_contact = ufl.conditional(ufl.gt(depth, 0), 1.0, 0.0)
     state = friction.at_vertices(in_contact + friction.slipping(u, depth, law), law, "stick_slip")
     return [traction, bound, slip, state]
+
+
+def pair_fields(u, fields):
+    """With [[pairs]], the pressure on both faces of every pair (``pair_pressure``, P1: the nodal mean
+    Σ_q w_q λ_i p_q / Σ_q w_q λ_i over the pair's integration points, 0 off the faces) and the body of every
+    owned cell (an integer array, 0, 1, … as :mod:`nc_dolfinx.pairs.bodies` numbers them). Without: [], None."""
+    if not fields.pairs:
+        return [], None
+    import numpy as np
+    from ..mesh.domain import dof_of_node
+    coupling = fields.pair_coupling(u)
+    p = coupling.pressure()
+    msh = u.function_space.mesh
+    Q = versions.p1_space(msh)
+    total, weight = fem.Function(Q, name="pair_pressure"), fem.Function(Q)
+    at_node = dof_of_node(Q)
+    for rows, where in coupling.by_rows():
+        dofs = at_node[rows.face.nodes[rows.facet]].ravel()
+        share = rows.measure[:, None] * rows.bary
+        np.add.at(total.x.array, dofs, (share * p[where][:, None]).ravel())
+        np.add.at(weight.x.array, dofs, share.ravel())
+    for fn in (total, weight):
+        fn.x.scatter_reverse(versions.SCATTER_ADD)
+    seen = weight.x.array > 0
+    total.x.array[seen] /= weight.x.array[seen]
+    total.x.scatter_forward()
+    n_owned = msh.topology.index_map(msh.topology.dim).size_local
+    return [total], fields.bodies.of_cell[:n_owned].astype(np.int32)

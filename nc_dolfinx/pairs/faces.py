@@ -22,6 +22,7 @@ class Face:
     name: str
     facets: np.ndarray     # (n,) local facet indices
     cells: np.ndarray      # (n,) the local cell of each facet
+    nodes: np.ndarray      # (n, k) the geometry nodes of its vertices
     vertices: np.ndarray   # (n, k, gdim) coordinates
     dofs: np.ndarray       # (n, k) global dof blocks (of the P1 vector space's index map)
     local_dofs: np.ndarray  # (n, k) local dof blocks
@@ -52,7 +53,7 @@ def face(domain, space, group_id, name):
     local = dof_of_node(space)[nodes] if len(facets) else np.zeros((0, gdim), dtype=np.int64)
     index_map = space.dofmap.index_map
     dofs = index_map.local_to_global(local.ravel().astype(np.int32)).reshape(local.shape) if len(facets) else local
-    return Face(name, facets, cells, vertices, np.asarray(dofs, dtype=np.int64), local, normals, sizes)
+    return Face(name, facets, cells, nodes, vertices, np.asarray(dofs, dtype=np.int64), local, normals, sizes)
 
 
 def _normals_and_sizes(vertices):

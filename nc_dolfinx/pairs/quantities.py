@@ -34,3 +34,15 @@ def pair_quantities(u, fields):
         out[f"pair{k}_max_pressure"] = comm.allreduce(peak, op=MPI.MAX)
         out[f"pair{k}_max_penetration"] = comm.allreduce(deepest, op=MPI.MAX)
     return out
+
+
+def pair_pressure(u, fields, number=1, side=0):
+    """The pressure of pair ``number`` (1-based) at this rank's integration points of its first (``side`` 0)
+    or second face: (points (n, gdim), p (n,)). For plots and checks (the points of each face of each
+    rank: gather them to plot one face)."""
+    coupling = fields.pair_coupling(u)
+    pressure = coupling.pressure()
+    for rows, where in coupling.by_rows():
+        if rows.pair.number == number and rows.side == side:
+            return rows.x, pressure[where].copy()
+    raise ValueError(f"no pair {number} (pairs: 1 to {len(fields.pairs)})")

@@ -197,7 +197,8 @@ def bind(problem, domain):
             "model belongs in mesh.symmetry)".format('them' if len(unassigned) > 1 else 'it'))
     _check_finite_on_mesh(problem, domain, ids, listed_neumann)
     shape.resolve(domain, problem)  # once per mesh family: refinement keeps it
-    fields.warnings += [text for role in ("contact", "neumann") for i in ids[role]
+    faces = {"pairs": tuple(i for pair in fields.pairs for i in pair.ids)}
+    fields.warnings += [text for role in ("contact", "neumann", "pairs") for i in {**ids, **faces}[role]
                         if (text := shape.faceted_warning(domain, i, role))]
     if dim == 3 and contact["m_n"] > 2:
         fields.notes.append(f"m_n = {contact['m_n']:g} > 2 in 3D: σ_n(u) ∈ L²(Γ_C), used by the paper's "
@@ -420,6 +421,7 @@ def build_domain(problem, comm):
     if not spec["file"]:
         raise InputError("the problem names no mesh (mesh.file, mesh.rectangle or mesh.box): build a Domain "
                          "(nc.from_gmsh_model, nc.from_dolfinx, …) and pass it to solve/adapt")
-    path = Path(spec["file"])
-    check_file(path, "mesh file")
-    return gmsh_io.from_gmsh(comm, path)
+    paths = [Path(f) for f in spec["file"]] if isinstance(spec["file"], list) else [Path(spec["file"])]
+    for path in paths:
+        check_file(path, "mesh file")
+    return gmsh_io.from_gmsh(comm, paths if len(paths) > 1 else paths[0])

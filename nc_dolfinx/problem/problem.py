@@ -52,7 +52,8 @@ class Problem:
         mesh = values["mesh"]
         for key in ("file", "cad"):  # relative to the problem file
             if mesh.get(key) is not None and source is not None:
-                mesh[key] = str((Path(source).parent / mesh[key]).resolve())
+                resolve = lambda name: str((Path(source).parent / name).resolve())  # noqa: E731
+                mesh[key] = [resolve(f) for f in mesh[key]] if isinstance(mesh[key], list) else resolve(mesh[key])
         problem = cls(name=name, values=values, given=given, raw=raw,
                       source=Path(source) if source else None, overrides=tuple(overrides))
         problem._step_ends()  # every state a load path reaches is valid before anything runs
@@ -247,7 +248,7 @@ def _check_consistency(values, given):
         check_exponent(contact["m_n"], 3)
     _check_friction(contact, given, values["parameters"])
 
-    _check_pairs(values, roles, dim)
+    _check_pairs(values, roles, dim, given)
 
     reference = values["reference"]
     if reference["hertz"] and reference["radius"] is None:
@@ -255,10 +256,10 @@ def _check_consistency(values, given):
     check_reference(values, dim)
 
 
-def _check_pairs(values, roles, dim):
+def _check_pairs(values, roles, dim, given):
     """[[pairs]]: each face in no other role and in one pair; c_n >= 0; something to contact at all."""
     pairs = values["pairs"]
-    if not values["mesh"]["contact"] and not pairs:
+    if "mesh.contact" not in given and not pairs:
         raise InputError("missing required key 'mesh.contact': the boundary groups of Γ_C on the foundation "
                          "(or [[pairs]] of faces of two bodies)")
     seen = {}

@@ -89,9 +89,10 @@ KEYS = [
     Key("parameters.*", "number", "a named number, or an expression of the parameters above it; usable in "
         "every expression and number of the file"),
     # [mesh]
-    Key("mesh.file", "string", "gmsh `.msh` file (linear triangles in 2D, tetrahedra in 3D) with physical "
+    Key("mesh.file", "files", "gmsh `.msh` file (linear triangles in 2D, tetrahedra in 3D) with physical "
         "groups, relative to the problem file; one of `file`, `rectangle`, `box` (or none, when the Python API is given "
-        "the mesh as a Domain)"),
+        "the mesh as a Domain). Bodies meshed apart: a list of files, one mesh made of them (their groups' names "
+        "must differ), e.g. `[\"ball.msh\", \"block.msh\"]` with [[pairs]] between them"),
     Key("mesh.rectangle", "corners", "built-in 2D mesh `[[x0, y0], [x1, y1]]` with the groups "
         "`left`/`right` (x = x0/x1), `bottom`/`top` (y = y0/y1)"),
     Key("mesh.box", "corners", "built-in 3D tetrahedral mesh `[[x0, y0, z0], [x1, y1, z1]]` with the "
@@ -378,6 +379,21 @@ def _boolean(value, where, _):
     return value
 
 
+def _files(value, where, parameters):
+    """A file name, or a non-empty list of distinct file names (bodies meshed apart)."""
+    if not isinstance(value, list):
+        return _string(value, where, parameters)
+    if not value or len(value) > MAX_FILES:
+        raise InputError(f"{where} must be a file name or a list of 1 to {MAX_FILES} file names, got {brief(value)}")
+    names = [_string(v, f"{where}[{i}]", parameters) for i, v in enumerate(value, 1)]
+    if len(set(names)) != len(names):
+        raise InputError(f"{where} names a file twice: {brief(value)}")
+    return names
+
+
+MAX_FILES = 100
+
+
 def _string(value, where, _):
     if not isinstance(value, str):
         raise InputError(f"{where} must be a string, got {brief(value)}")
@@ -448,7 +464,7 @@ def _free_or_expression(value, where, parameters):
         raise
 
 
-_KINDS = {"number": _number, "expression": _expression, "vector": _vector, "groups": _groups,
+_KINDS = {"files": _files, "number": _number, "expression": _expression, "vector": _vector, "groups": _groups,
           "integer": _integer, "boolean": _boolean, "string": _string, "corners": _corners,
           "cells": _cells, "option": _option, "prescribed": _displacement_vector, "point": _point}
 
