@@ -79,6 +79,13 @@ COLUMNS = {
                      "|contact_force| [+ |friction_force|] + Σ |reaction|): 0 for a body in equilibrium, within "
                      "the solver's tolerance (every force is the resultant of its part of the residual of (7), "
                      "on curved and flat Γ_C alike)",
+    "pairK_force_x": "with [[pairs]]: x component of the force the second face's body exerts on the first's, "
+                     "pair K (_y, _z alike): the resultant of the pair's part of the residual of (7) on that body "
+                     "(the other body gets its opposite)",
+    "pairK_resultant": "with [[pairs]]: ∫ p over pair K's first face (its normal force)",
+    "pairK_contact_length": "with [[pairs]]: measure of {p > 0} on pair K's first face (2D; _contact_area in 3D)",
+    "pairK_max_pressure": "with [[pairs]]: the largest pressure of pair K at its integration points (both faces)",
+    "pairK_max_penetration": "with [[pairs]]: the largest (u_n − g_0)_+ of pair K at its integration points",
     "max_displacement": "max over the vertices of |u_h|",
     "l2_error": "‖u − u_h‖_0 (with an exact solution)",
     "h1_error": "‖u − u_h‖_1 (with an exact solution)",
@@ -109,6 +116,9 @@ FIELDS = {
     "zeta": "DG0 oscillation ζ_K",
     "eta_geometry": "DG0 geometric term η_geo,K (how far the cell's Γ_C ∪ Γ_N facets lie from the true shape)",
     "region": "DG0 material region id of the cell (VTU files)",
+    "pair_pressure": "with [[pairs]]: P1 pressure on both faces of every pair (the mean of the pair's integration "
+                     "points around each vertex), 0 elsewhere",
+    "body": "with [[pairs]]: the body of the cell, 0, 1, … by its lowest vertex (VTU files)",
 }
 
 
@@ -118,6 +128,10 @@ def describe(name):
         return COLUMNS["param_NAME"].replace("NAME", repr(name[len("param_"):]), 1)
     if name.startswith("reaction_") and name[-2:] in ("_x", "_y", "_z"):
         return COLUMNS["reaction_GROUP_x"].replace("GROUP", repr(name[len("reaction_"):-2]), 1)
+    if name.startswith("pair") and "_" in name and name[4:name.index("_")].isdigit():
+        rest = name[name.index("_"):]
+        rest = {"_force_y": "_force_x", "_force_z": "_force_x", "_contact_area": "_contact_length"}.get(rest, rest)
+        return COLUMNS.get("pairK" + rest, "").replace("pair K", f"pair {name[4:name.index('_')]}") or None
     for vector in ("applied_load_", "friction_force_"):
         if name.startswith(vector):
             return COLUMNS[vector + "x"]

@@ -50,7 +50,8 @@ def bind_pairs(problem, domain, fields, group_id, counts):
         degree = given["quadrature_degree"] or DEFAULT_DEGREE[domain.mesh.geometry.dim]
         fields.pairs.append(Pair(number, tuple(given["faces"]), ids,
                                  tuple(fields.bodies.names[b] for b in bodies), given["c_n"], float(given["m_n"]),
-                                 float(given["offset"]), given["passes"], int(degree), given["search_distance"],
+                                 float(given["offset"]), given["passes"], int(degree), given["integration"],
+                                 given["search_distance"],
                                  dict(problem.parameters)))
     _check_each_body_held(fields)
 

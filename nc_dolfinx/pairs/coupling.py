@@ -47,6 +47,7 @@ class Pair:
     offset: float
     passes: str
     degree: int
+    integration: str    # "cut", "gauss" or "nodes" (:mod:`.segments`)
     search_distance: float
     parameters: dict    # the problem's parameters (c_n may be an expression of them and of x)
 
@@ -178,7 +179,7 @@ def _concatenate(arrays):
 
 def _pass(comm, pair, side, own, other, fields):
     """The rows of one pass: ``own``'s Gauss points projected onto ``other``."""
-    x, w, bary, facet, projection = segments.points_and_projection(comm, own, other, pair.degree)
+    x, w, bary, facet, projection = segments.points_and_projection(comm, own, other, pair.degree, pair.integration)
     normal = own.normals[facet]
     gap = np.einsum("ij,ij->i", projection.point - x, normal) + pair.offset
     _check_facing(comm, pair, side, normal, projection)

@@ -10,7 +10,9 @@ from mpi4py import MPI
 
 
 def pair_quantities(u, fields):
-    """Per pair k (1-based): ``pair{k}_force`` (the vector the second face's body exerts on the first's),
+    """What a solution of (7) with [[pairs]] says of each pair k (1-based), the law (4) across two bodies:
+    ``pair{k}_force`` (the vector the second face's body exerts on the first's),
+    ``pair{k}_resultant`` (∫ p over the first face: the normal force, as ``contact_resultant`` for Γ_C),
     ``pair{k}_contact_length`` (2D) or ``_contact_area`` (3D) (the measure of {p > 0} on the first face),
     ``pair{k}_max_pressure`` and ``pair{k}_max_penetration`` (at the integration points of both faces)."""
     coupling = fields.pair_coupling(u)
@@ -18,7 +20,7 @@ def pair_quantities(u, fields):
     comm, gdim = fields.domain.comm, fields.dim
     out = {}
     for pair in fields.pairs:
-        force, measure, peak, deepest = np.zeros(gdim), 0.0, 0.0, 0.0
+        force, measure, resultant, peak, deepest = np.zeros(gdim), 0.0, 0.0, 0.0, 0.0
         for rows, where in coupling.by_rows():
             if rows.pair is not pair:
                 continue
@@ -26,10 +28,12 @@ def pair_quantities(u, fields):
             force += (-1.0 if rows.side == 0 else 1.0) * (rows.w * p) @ rows.normal
             if rows.side == 0:
                 measure += float(rows.measure[p > 0].sum())
+                resultant += float(rows.measure @ p)
             peak = max(peak, float(p.max(initial=0.0)))
             deepest = max(deepest, float(penetration[where].max(initial=0.0)))
         k = pair.number
         out[f"pair{k}_force"] = [float(f) for f in comm.allreduce(force, op=MPI.SUM)]
+        out[f"pair{k}_resultant"] = comm.allreduce(resultant, op=MPI.SUM)
         out[f"pair{k}_contact_{'length' if gdim == 2 else 'area'}"] = comm.allreduce(measure, op=MPI.SUM)
         out[f"pair{k}_max_pressure"] = comm.allreduce(peak, op=MPI.MAX)
         out[f"pair{k}_max_penetration"] = comm.allreduce(deepest, op=MPI.MAX)
@@ -37,8 +41,8 @@ def pair_quantities(u, fields):
 
 
 def pair_pressure(u, fields, number=1, side=0):
-    """The pressure of pair ``number`` (1-based) at this rank's integration points of its first (``side`` 0)
-    or second face: (points (n, gdim), p (n,)). For plots and checks (the points of each face of each
+    """The pressure p = c_n (u_n − g_0)_+^{m_n} of the law (4) across pair ``number`` (1-based) at this rank's
+    integration points of its first (``side`` 0) or second face: (points (n, gdim), p (n,)). For plots and checks (the points of each face of each
     rank: gather them to plot one face)."""
     coupling = fields.pair_coupling(u)
     pressure = coupling.pressure()

@@ -17,16 +17,21 @@ zero (measured in tests/test_pairs.py, and stated in the guide).
 import numpy as np
 
 from . import search
-from .faces import gauss_rule
+from .faces import gauss_rule, quadrature_points
 
 MAX_ROUNDS = 4
 COMPOSITE_LEVELS_3D = 1
 _EPS = 1e-10  # relative to the edge: cuts closer than this to an end or to each other are one
 
 
-def points_and_projection(comm, own, other, degree):
+def points_and_projection(comm, own, other, degree, integration="cut"):
     """The integration points of ``own`` and their closest points on ``other``: (x (n, gdim), w (n,), bary
-    in their facet (n, k), facet (n,), :class:`~.search.Projection`)."""
+    in their facet (n, k), facet (n,), :class:`~.search.Projection`). ``integration``: "cut" (above),
+    "gauss" (the rule on whole facets) or "nodes" (the facets' vertices with a k-th of the facet's measure
+    each: a node-to-segment scheme, for comparison)."""
+    if integration != "cut":
+        x, w, bary, facet = _vertex_points(own) if integration == "nodes" else quadrature_points(own, degree)
+        return x, w, bary, facet, search.project(comm, x, other)
     if own.vertices.shape[2] == 3:
         x, w, bary, facet = _composite_triangles(own, degree, COMPOSITE_LEVELS_3D)
         return x, w, bary, facet, search.project(comm, x, other)
@@ -95,3 +100,10 @@ def _composite_triangles(own, degree, levels):
     x = np.einsum("qk,nkd->nqd", sub, own.vertices).reshape(-1, 3)
     w = (own.sizes[:, None] * sub_w[None, :]).ravel()
     return x, w, bary, facet
+
+
+def _vertex_points(own):
+    """Each facet's vertices as its points, a k-th of its measure each (the lumped, node-to-segment rule)."""
+    n, k, gdim = own.vertices.shape
+    bary = np.tile(np.eye(k), (n, 1))
+    return (own.vertices.reshape(-1, gdim), np.repeat(own.sizes / k, k), bary, np.repeat(np.arange(n), k))

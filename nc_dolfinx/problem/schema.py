@@ -240,6 +240,10 @@ KEYS = [
     Key("pairs.passes", "choice", "`two`: each face's quadrature points are projected onto the other, each "
         "pass weighted ½ (unbiased: passes the contact patch test); `one`: the first face's only", "two",
         ("two", "one")),
+    Key("pairs.integration", "choice", "where the pair's integrals are taken: `cut` (each facet cut where the "
+        "other face's vertices project, a Gauss rule on each piece: exact for the patch test in 2D; in 3D a "
+        "composite rule on 4 sub-triangles), `gauss` (the Gauss rule on whole facets), `nodes` (the facet's vertices, "
+        "a lumped rule: node-to-segment, for comparison: it fails the patch test)", "cut", ("cut", "gauss", "nodes")),
     Key("pairs.quadrature_degree", "integer", "the Gauss rule on each facet of the faces (default: 8 in 2D, "
         "6 in 3D)", check=_at_least_one),
     Key("pairs.search_distance", "number", "points of one face farther than this from the other face take no "
@@ -541,7 +545,7 @@ def steps_of(data, parameters, given):
     return out
 
 
-PAIR_KEYS = ("faces", "c_n", "m_n", "offset", "passes", "quadrature_degree", "search_distance")
+PAIR_KEYS = ("faces", "c_n", "m_n", "offset", "passes", "integration", "quadrature_degree", "search_distance")
 MAX_PAIRS = 100
 # Keys required of a body on the foundation, optional when [[pairs]] are its only contacts (their defaults then)
 WITHOUT_FOUNDATION = {"mesh.contact": [], "contact.c_n": 0.0, "contact.m_n": 1.0}
