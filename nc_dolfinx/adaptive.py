@@ -293,7 +293,8 @@ class _Loop:
         except InputError:
             if guess is self.previous:
                 raise
-            log.info("the predicted initial guess failed: solved again from the previous state")
+            if domain.comm.rank == 0:
+                log.info("the predicted initial guess failed: solved again from the previous state")
             solution = solve(state.problem, domain, self.previous, self.petsc_options, steps,
                              previous_state=self.state_start)
         self.times["solve"] = time.perf_counter() - t
