@@ -241,8 +241,8 @@ KEYS = [
         "pass weighted ½ (unbiased: passes the contact patch test); `one`: the first face's only", "two",
         ("two", "one")),
     Key("pairs.integration", "choice", "where the pair's integrals are taken: `cut` (each facet cut where the "
-        "other face's vertices project, a Gauss rule on each piece: exact for the patch test in 2D; in 3D a "
-        "composite rule on 4 sub-triangles), `gauss` (the Gauss rule on whole facets), `nodes` (the facet's vertices, "
+        "other face's vertices project (2D) or by the other face's triangles projected onto it (3D), a Gauss rule on "
+        "each piece: the patch test to round-off), `gauss` (the Gauss rule on whole facets), `nodes` (the facet's vertices, "
         "a lumped rule: node-to-segment, for comparison: it fails the patch test)", "cut", ("cut", "gauss", "nodes")),
     Key("pairs.quadrature_degree", "integer", "the Gauss rule on each facet of the faces (default: 8 in 2D, "
         "6 in 3D)", check=_at_least_one),
