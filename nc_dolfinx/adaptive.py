@@ -215,11 +215,16 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     if settings is not None and overrides:
         raise TypeError(f"adapt: give settings or {', '.join(sorted(overrides))}, not both")
     settings = settings or AdaptSettings.from_problem(problem, **overrides)
+    if problem.values["steps"] and problem.values["solver"]["load_steps"] != 1:  # (the command line says so first)
+        raise InputError(f"solver.load_steps = {problem.values['solver']['load_steps']} splits the loads of a single "
+                         "solve, and this problem is a load path: give its steps more increments instead "
+                         "([[steps]].increments, e.g. increments = 3)")
     t0 = time.perf_counter()
     if domain is None:
         from .physics.binding import build_domain
         domain = build_domain(problem, comm or MPI.COMM_WORLD)
     loop = _Loop(settings, petsc_options, on_level, {"mesh": time.perf_counter() - t0})
+    loop.path_parameters = list(dict.fromkeys(name for step in problem.values["steps"] for name in step["set"]))
     states = problem.load_path()
     state = next(states)
     for following in (*states, None):
@@ -255,6 +260,7 @@ class _Loop:
         self.settings, self.petsc_options, self.on_level, self.times = settings, petsc_options, on_level, times
         self.history, self.previous = [], None
         self.state_start = None  # with friction: u at the previous load state, on the current mesh
+        self.path_parameters = []  # the parameters [[steps]] set: a column param_NAME each
         # the secant predictor's two last converged states: (u, parameters), the last first
         self.converged = []
 
@@ -359,6 +365,7 @@ class _Loop:
                                                                           row.get("max_penetration", 0.0))
             if state.step:
                 row.update(step=state.step, increment=state.increment, load_time=state.time)
+                row.update({f"param_{name}": float(state.problem.parameters[name]) for name in self.path_parameters})
             if extra is not None:
                 row.update(extra if number_in_step == 0 else {"increment_cuts": 0, "cut_reason": "", "time_cut": 0.0})
             stop = _stop_reason(self.settings, number_in_step, row["dofs"], est.totals["eta"], eta0) \

@@ -234,3 +234,14 @@ def test_write_every_without_a_path_writes_every_nth_level_and_the_last(tmp_path
                                                                         "level_03.pvtu"]
     assert len(history(out)) == 4 and not (out / "load_path.png").exists()
     assert "level 3" in result.stdout  # (a refinement level is still a level)
+
+
+def test_the_api_rows_carry_the_path_parameters_and_refuse_load_steps():
+    """Through nc.adapt too (not only the command line): a row of a path has param_NAME at its state, and
+    solver.load_steps on a path is refused, as --load-steps is."""
+    overrides = ["mesh.cells=[8,4]", "parameters.p=0", 'loads.g.top=["0", "-p*x"]',
+                 'steps=[{set = {p = 10}}, {set = {p = "2*p"}, increments = 3}]']
+    rows = nc.adapt(nc.load_problem("block", overrides), refine="none").history
+    assert [row["param_p"] for row in rows] == pytest.approx([10.0, 40.0 / 3, 50.0 / 3, 20.0], rel=1e-15)
+    with pytest.raises(nc.InputError, match="solver.load_steps = 3 splits the loads of a single solve"):
+        nc.adapt(nc.load_problem("block", overrides + ["solver.load_steps=3"]), refine="none")
