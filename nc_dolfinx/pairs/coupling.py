@@ -87,21 +87,22 @@ class PairCoupling:
         self.w = _concatenate([r.w for r in self.rows])
         self.c_n = _concatenate([r.c_n for r in self.rows])
         self.m_n = _concatenate([np.full(len(r.w), r.m_n) for r in self.rows])
-        self.e = self.B.createVecLeft()
-        self.scaled = self.B.createVecLeft()
-        self.B0 = self.J = self.DB0 = None
+        self.e, self.scaled, self.g_vec = (self.B.createVecLeft() for _ in range(3))
+        self.g_vec.setArray(self.g)
+        self.B0 = self.J = self.DB0 = None  # made by widen and the first add_jacobian, kept for this mesh
 
     # --- the solver's protocol: widen K's sparsity, add to the residual and the Jacobian, the energy ----
 
     def widen(self, K, bcs):
         """K with the sparsity of K + BᵀB (values unchanged), the Dirichlet dofs' columns of B zeroed for
         the Jacobian (the solver's J keeps its identity rows there)."""
-        keep = K.createVecRight()
-        keep.set(1.0)
-        versions.set_dirichlet_rows(keep, bcs, 0.0)  # (0 on the held dofs)
-        self.B0 = self.B.copy()
-        self.B0.diagonalScale(R=keep)
-        keep.destroy()
+        if self.B0 is None:  # (the same bcs for every solver of this mesh's fields)
+            keep = K.createVecRight()
+            keep.set(1.0)
+            versions.set_dirichlet_rows(keep, bcs, 0.0)  # (0 on the held dofs)
+            self.B0 = self.B.copy()
+            self.B0.diagonalScale(R=keep)
+            keep.destroy()
         pattern = self.B.transposeMatMult(self.B)
         pattern.zeroEntries()
         lgmaps = K.getLGMap()  # (DOLFINx assembles into copies of K by local indices)
@@ -113,7 +114,7 @@ class PairCoupling:
     def penetration(self):
         """e = B u − g at every point (a PETSc Vec of the rows; its local array on this rank's points)."""
         self.B.mult(versions.petsc_vec(self.u), self.e)
-        self.e.axpy(-1.0, self._g_vec())
+        self.e.axpy(-1.0, self.g_vec)
         return self.e.getArray(readonly=True)
 
     def pressure(self):
@@ -132,8 +133,7 @@ class PairCoupling:
         """matrix += B0ᵀ W p'(B u − g) B0 (B0: B without the Dirichlet columns); the kink closed: for
         m_n = 1 a point with B u = g counts as in contact, as the foundation's closed Jacobian."""
         e = self.penetration()
-        active = e >= 0.0
-        slope = np.where(active, self.c_n * self.m_n * np.where(active, np.maximum(e, 0.0), 1.0) ** (self.m_n - 1), 0.0)
+        slope = np.where(e >= 0.0, self.c_n * self.m_n * np.abs(e) ** (self.m_n - 1), 0.0)  # (0^0 = 1: m_n = 1)
         self.scaled.setArray(self.w * slope)
         if self.DB0 is None:
             self.DB0 = self.B0.copy()
@@ -152,14 +152,8 @@ class PairCoupling:
         return self.u.function_space.mesh.comm.allreduce(
             float(np.sum(self.w * self.c_n / (self.m_n + 1) * e ** (self.m_n + 1))), op=MPI.SUM)
 
-    def _g_vec(self):
-        if not hasattr(self, "_g"):
-            self._g = self.B.createVecLeft()
-            self._g.setArray(self.g)
-        return self._g
-
     def destroy(self):
-        for obj in (self.B, self.B0, self.J, self.DB0, self.e, self.scaled, getattr(self, "_g", None)):
+        for obj in (self.B, self.B0, self.J, self.DB0, self.e, self.scaled, self.g_vec):
             if obj is not None:
                 obj.destroy()
 
