@@ -93,6 +93,11 @@ COLUMNS = {
     "effectivity": "η / ‖u − u_h‖_1",
     "effectivity_augmented": "η / augmented_error",
     "marked": "cells marked for refinement (adaptive)",
+    "increment_cuts": "on a step with increments = \"auto\": how many times this increment was halved before it "
+                      "converged (0: solved whole)",
+    "cut_reason": "on a step with increments = \"auto\": why each cut was made ('; '-separated: the solve "
+                  "failed, or needed more than solver.increment_newton_target Newton steps); empty if none",
+    "time_cut": "seconds: on a step with increments = \"auto\", the attempts discarded before this increment",
     "time_mesh": "seconds: building the level-0 mesh (level 0 only)",
     "time_refine": "seconds: the refinement that made this level's mesh",
     "time_solve": "seconds: bind the problem and solve (7)",
