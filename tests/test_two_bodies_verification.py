@@ -2,7 +2,6 @@
 
 - the patch test's contrast in 2D: the shipped scheme (edges cut where the other face's vertices project)
   transmits the uniform pressure to round-off, the Gauss rule on whole edges and node-to-segment do not;
-  the script's 3D monkeypatch (the composite rule) is undone afterwards;
 - the symmetry identity on mirrored meshes, as the script computes it;
 - two-body Hertz on the first levels of two_cylinders, within the coarse levels' error;
 - the benchmark's --smoke run prints its table and a finite ratio.
@@ -41,13 +40,6 @@ def test_patch_test_needs_the_cut(script, blocks):
     assert shipped < 1e-12
     assert whole_edges > 1e-4          # (measured 1.2e-2: the kinks of v(Πx) inside whole edges)
     assert node_to_segment > 1e-3      # (measured 5.6e-2)
-
-
-def test_the_composite_monkeypatch_is_undone(script):
-    clipped = script.segments._clipped_triangles
-    with script.composite(2):
-        assert script.segments._clipped_triangles is not clipped
-    assert script.segments._clipped_triangles is clipped
 
 
 def test_symmetry_identity_on_mirrored_meshes(script, tmp_path):

@@ -92,10 +92,16 @@ def pointwise(variables, expr):
 
 def symbolic_residuals(m, dim=2):
     """{condition: max |residual|} of the interface conditions, the contact zone and the loads, computed by sympy
-    from the very strings given to the library (expressions.to_sympy): exact zeros where the algebra closes,
+    from the very strings given to the library (sympy's parser with the library's functions: pos, min, max):
+    exact zeros where the algebra closes,
     and the largest value on a grid of 2001 points of the face (both sides of x0) as a float."""
     import sympy
-    from nc_dolfinx.problem.expressions import to_sympy
+
+    def to_sympy(text, coordinates, values):  # the problem-file syntax (Python's) with the library's functions
+        names = {"pos": lambda a: sympy.Max(a, 0), "min": sympy.Min, "max": sympy.Max, "abs": sympy.Abs,
+                 "sqrt": sympy.sqrt, "exp": sympy.exp, "log": sympy.log, "sin": sympy.sin, "cos": sympy.cos,
+                 "pi": sympy.pi, **{k: sympy.Float(v) for k, v in values.items()}, **coordinates}
+        return sympy.sympify(text, locals=names)
     par = parameters(m)
     X = sympy.symbols("x y z"[:2 * dim - 1], real=True)
     x, v = X[0], X[-1]  # v: the vertical coordinate (y in 2D, z in 3D)
@@ -214,7 +220,7 @@ def body_errors(u, fields):
     msh = fields.domain.mesh
     y = ufl.SpatialCoordinate(msh)[msh.geometry.dim - 1]
     e = fields.u_exact - u
-    dx = ufl.dx(metadata={"quadrature_degree": nc.ERROR_DEGREE})
+    dx = ufl.dx(metadata={"quadrature_degree": nc.QUADRATURE_DEGREES["error"]})
     upper = ufl.conditional(ufl.gt(y, 0.5), 1.0, 0.0)
     comm = msh.comm
     g2 = ufl.inner(ufl.grad(e), ufl.grad(e))

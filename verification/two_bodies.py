@@ -12,8 +12,7 @@ A client of the public API (``nc.Problem``, ``nc.build_domain``, ``nc.solve``, `
     integration points, with the pair's ``integration`` key: ``cut`` (the shipped default: 2D edges cut where
     the other face's vertices project, 3D triangles clipped by the other face's), ``gauss`` (the rule on whole
     facets: no cut), ``nodes`` (node-to-segment: the facets' vertices, lumped weights), two half-passes and
-    one pass; in 3D also the composite rule on 4^levels sub-triangles of every facet, levels 0, 1, 2 (what 3D
-    did before the clipping: ``segments._clipped_triangles`` monkeypatched, restored after each run).
+    one pass.
 (b) ``symmetry``: a square and its mirror image pressed together (``meshes/two_bodies.py mirrored``) against the
     square alone on a foundation at the mirror plane with c_n' = 2^m c_n, g_0' = g_0/2 (m_n = 1.5): equal to
     round-off on mirrored meshes. On a non-matching pair (the stacked blocks, h 1/6 below and 1/9 above, the
@@ -31,7 +30,6 @@ import math
 import sys
 import tempfile
 import time
-from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +39,6 @@ sys.path.insert(0, str(ROOT))
 
 import nc_dolfinx as nc  # noqa: E402
 from mpi4py import MPI  # noqa: E402
-from nc_dolfinx.pairs import segments  # noqa: E402
 
 
 
@@ -98,22 +95,6 @@ def exact_pressure(dim):
     return D / (((1 - NU ** 2) / E if dim == 2 else 1 / E) + 1 / C_N)
 
 
-@contextmanager
-def composite(levels):
-    """3D "cut" replaced by the composite rule on 4^levels sub-triangles of every facet (what 3D did before
-    the clipping): ``segments._clipped_triangles`` patched, and restored afterwards."""
-    saved = segments._clipped_triangles
-
-    def composite_only(comm, own, other, degree):
-        x, w, bary, facet = segments._composite_triangles(own, degree, levels)
-        return x, w, bary, facet, segments.search.project(comm, x, other)
-    try:
-        segments._clipped_triangles = composite_only
-        yield
-    finally:
-        segments._clipped_triangles = saved
-
-
 def patch_error(mesh, dim, passes="two", integration="cut"):
     """(max relative pressure error at the points taking part, number of points, |pair force| rel. error)."""
     problem = stacked_problem(mesh, dim, passes, integration)
@@ -130,7 +111,7 @@ def patch_error(mesh, dim, passes="two", integration="cut"):
     return error, points, force
 
 
-VARIANTS_2D = [  # (label, passes, integration, composite levels or None)
+VARIANTS_2D = [  # (label, passes, integration, None)
     ("cut where the other face's vertices project (shipped default)", "two", "cut", None),
     ("cut", "one", "cut", None),
     ("whole edges (integration = \"gauss\")", "two", "gauss", None),
@@ -142,9 +123,6 @@ VARIANTS_3D = [
     ("cut by the other face's triangles, clipped (shipped default)", "two", "cut", None),
     ("cut, clipped", "one", "cut", None),
     ("whole facets (integration = \"gauss\")", "two", "gauss", None),
-    ("composite rule, level 0 on every facet (= gauss)", "two", "cut", 0),
-    ("composite rule, level 1 on every facet (the default before the clipping)", "two", "cut", 1),
-    ("composite rule, level 2 on every facet", "two", "cut", 2),
     ("node-to-segment (integration = \"nodes\")", "one", "nodes", None),
 ]
 
@@ -161,10 +139,9 @@ def part_patch(tmp, quick):
             variants = [v for v in variants if "shipped" in v[0] or "gauss" in v[0] and v[1] == "two"]
         rows = []
         for label, passes, integration, levels in variants:
-            with composite(levels) if levels is not None else nullcontext():
-                t = time.perf_counter()
-                error, points, force = patch_error(mesh, dim, passes, integration)
-                rows.append([label, passes, points, fmt(error), fmt(force), f"{time.perf_counter() - t:.1f}"])
+            t = time.perf_counter()
+            error, points, force = patch_error(mesh, dim, passes, integration)
+            rows.append([label, passes, points, fmt(error), fmt(force), f"{time.perf_counter() - t:.1f}"])
             out[(dim, label, passes)] = error
         say(f"\n**(a) Patch test, {dim}D** (stacked blocks, h 1/6 below, 1/9 above, jittered; exact p = "
             f"{exact_pressure(dim):.6g})\n")
