@@ -122,29 +122,66 @@ def _vertex_points(own):
 # --- 3D: each triangle of one face cut by the triangles of the other, projected onto its plane -------------
 
 def _clipped_triangles(comm, own, other, degree):
-    """3D "cut": each facet T of ``own`` is cut by the facets S of ``other`` found near it, projected onto T's
-    plane (Sutherland–Hodgman), and the rule applied on the pieces (fans of triangles); where the pieces do
-    not tile T (the other face ends, or it is not a graph over T's plane), T keeps the composite rule."""
-    x, w, bary, facet = _composite_triangles(own, degree, COMPOSITE_LEVELS_3D)
+    """3D "cut": each facet T of ``own`` near the other face is cut by the facets S of ``other`` that overlap
+    it, projected onto T's plane (Sutherland–Hodgman), and the rule applied on the pieces (fans of triangles);
+    a facet that the pieces do not tile (the other face ends, or is not a graph over T's plane) keeps the
+    composite rule, one far from the other face (farther than its own size: the law acts nowhere there) the
+    rule on the whole facet. Searches: the whole facets' points once, the probes of the facets not yet tiled
+    in each round (few), and the final points once."""
+    x, _, _, facet = quadrature_points(own, degree)
     projection = search.project(comm, x, other)
-    near = [dict() for _ in range(own.count)]
-    # Only facets within their own size of the other face are cut (the law acts nowhere else; cutting costs
-    # a clipping per pair of facets): the others keep the composite rule
     distance = np.full(own.count, np.inf)
     np.minimum.at(distance, facet, projection.distance)
     close = distance <= np.sqrt(own.sizes)
-    probed = False
+    near = [dict() for _ in range(own.count)]
+    _collect(near, facet[close[facet]], projection.vertices[close[facet]])
+    pieces, waiting = {}, np.flatnonzero(close)
     for _ in range(MAX_ROUNDS):
-        keep = close[facet]
-        new = _collect(near, facet[keep], projection.vertices[keep]) or probed
+        for f in waiting:
+            pieces[f] = _tiling(own, f, near[f])
+        waiting = [f for f in waiting if pieces[f] is None]
+        # where the pieces leave a gap, a triangle of the other face overlaps only a sliver: look closer
+        probes, probe_facet = _probes(own, waiting, near)
+        new = _collect(near, probe_facet, search.project(comm, probes, other).vertices)
         if not comm.allreduce(new):
             break
-        x, w, bary, facet, untiled = _pieces(own, degree, near)
-        projection = search.project(comm, x, other)
-        # where the pieces leave a gap, a triangle of the other face overlaps only a sliver: look closer
-        probes, probe_facet = _probes(own, untiled, near)
-        probed = _collect(near, probe_facet, search.project(comm, probes, other).vertices)
-    return x, w, bary, facet, projection
+    for f in waiting:
+        pieces[f] = _tiling(own, f, near[f])
+    x, w, bary, facet = _points(own, degree, close, pieces)
+    return x, w, bary, facet, search.project(comm, x, other)
+
+
+def _tiling(own, f, candidates):
+    """The triangles (a list of (3, 3)) that the candidates cut facet ``f`` into, or None if they do not tile it."""
+    T, normal = own.vertices[f], own.normals[f]
+    inward = _inward_normals(T, normal)
+    triangles = [t for S in candidates.values() for t in _fan(_clip(_onto_plane(S, T, normal), T, inward))]
+    area = sum(0.5 * np.linalg.norm(_cross(t[1] - t[0], t[2] - t[0])) for t in triangles)
+    return triangles if triangles and abs(area - own.sizes[f]) <= 1e-9 * own.sizes[f] else None
+
+
+def _points(own, degree, close, pieces):
+    """The rule on the pieces of every tiled facet, the composite rule on the other close ones, the rule on
+    the whole facet on the far ones."""
+    bary_ref, weights = gauss_rule(3, degree)
+    whole = quadrature_points(own, degree)
+    composite = _composite_triangles(own, degree, COMPOSITE_LEVELS_3D)
+    parts = []
+    for f in range(own.count):
+        triangles = pieces.get(f)
+        if triangles is None:
+            rule = composite if close[f] else whole
+            mine = rule[3] == f
+            parts.append(tuple(part[mine] for part in rule))
+            continue
+        points = np.concatenate([bary_ref @ t for t in triangles])
+        areas = [0.5 * np.linalg.norm(_cross(t[1] - t[0], t[2] - t[0])) for t in triangles]
+        parts.append((points, np.concatenate([a * weights for a in areas]), _barycentric(points, own.vertices[f]),
+                      np.full(len(points), f)))
+    if not parts:
+        return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    x, w, bary, facet = (np.concatenate(column) for column in zip(*parts))
+    return x, w, bary, facet.astype(np.int64)
 
 
 PROBE_STEP = 1e-3  # how far beyond a candidate's edge or vertex (relative) its neighbours are looked for
@@ -176,39 +213,6 @@ def _collect(near, facet, vertices):
             near[f][key] = triangle
             new = True
     return new
-
-
-def _pieces(own, degree, near):
-    """The rule on the pieces of every facet (or the composite rule where the pieces do not tile it)."""
-    bary_ref, weights = gauss_rule(3, degree)
-    composite = _composite_triangles(own, degree, COMPOSITE_LEVELS_3D)
-    xs, ws, bs, fs, untiled = [], [], [], [], []
-    for f in range(own.count):
-        T = own.vertices[f]
-        if not near[f]:  # (a facet far from the other face: the composite rule)
-            mine = composite[3] == f
-            xs.append(composite[0][mine]), ws.append(composite[1][mine]), bs.append(composite[2][mine])
-            fs.append(composite[3][mine])
-            continue
-        inward = _inward_normals(T, own.normals[f])
-        pieces = [_clip(_onto_plane(S, T, own.normals[f]), T, inward) for S in near[f].values()]
-        triangles = [t for polygon in pieces for t in _fan(polygon)]
-        areas = np.array([0.5 * np.linalg.norm(_cross(t[1] - t[0], t[2] - t[0])) for t in triangles])
-        if not triangles or abs(areas.sum() - own.sizes[f]) > 1e-9 * own.sizes[f]:
-            untiled.append(f)
-            mine = composite[3] == f
-            xs.append(composite[0][mine]), ws.append(composite[1][mine]), bs.append(composite[2][mine])
-            fs.append(composite[3][mine])
-            continue
-        points = np.concatenate([bary_ref @ t for t in triangles])
-        xs.append(points)
-        ws.append(np.concatenate([a * weights for a in areas]))
-        bs.append(_barycentric(points, T))
-        fs.append(np.full(len(points), f))
-    if not xs:
-        return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=np.int64), untiled
-    return (np.concatenate(xs), np.concatenate(ws), np.concatenate(bs), np.concatenate(fs).astype(np.int64),
-            untiled)
 
 
 def _onto_plane(S, T, normal):
