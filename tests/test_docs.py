@@ -160,6 +160,8 @@ def test_reference_lists_every_problem_file_key_and_output_column(site):
         assert len(names) > 20, names
         missing = [name for name in names if f">{name}<" not in text]
         assert not missing, f"{what} not on {page} (it should include _generated/{what}.md): {missing}"
+    without = [row.split("|")[1].strip() for row in tables.key_table().splitlines() if row.rstrip().endswith("– |")]
+    assert not without, f"keys without an example (a tutorial, a case or docs/key_examples.toml): {without}"
 
 
 def test_navigation_puts_the_tutorials_first_and_holds_no_dated_log(site, browser):
