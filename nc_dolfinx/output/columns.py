@@ -1,6 +1,6 @@
 """What every output column and field means, with its sign convention.
 
-One table serves ``summary.json`` (``columns``, ``sign_conventions``) and the user guide's output
+One table serves ``summary.json`` (``columns``, ``sign_conventions``) and the reference's output
 section (generated at build time by ``docs/reference_tables.py``; ``python3 -m nc_dolfinx.output.columns``
 prints it). ν is the outward unit normal of the body, u_n = u·ν, p the contact pressure.
 """
@@ -144,7 +144,7 @@ def describe(name):
 
 
 def markdown():
-    """The column and field reference of the user guide, as Markdown."""
+    """The column and field reference (docs: reference/output.md), as Markdown."""
     lines = ["| column | meaning |", "|---|---|"]
     lines += [f"| `{name}` | {doc} |" for name, doc in COLUMNS.items()]
     lines += ["", "| field | meaning |", "|---|---|"]
