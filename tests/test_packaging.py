@@ -59,3 +59,13 @@ def test_import_from_anywhere(venv, tmp_path):
     path, version, case = done.stdout.split()
     import nc_dolfinx
     assert path.startswith(str(venv)) and version == nc_dolfinx.__version__ and case.startswith(str(venv))
+
+
+def test_every_subpackage_is_packaged():
+    """pyproject.toml lists the packages by hand: a new subpackage left out installs a package that cannot be
+    imported (nc_dolfinx.pairs was, for one commit)."""
+    import re
+    text = (ROOT / "pyproject.toml").read_text()
+    listed = set(re.findall(r'"(nc_dolfinx(?:\.\w+)*)"', text.split("packages =", 1)[1].split("]", 1)[0]))
+    found = {".".join(p.parent.relative_to(ROOT).parts) for p in (ROOT / "nc_dolfinx").rglob("__init__.py")}
+    assert listed == found
