@@ -33,6 +33,20 @@ FLOOR_HYPRE = {2: {**_BOOMERAMG, "pc_hypre_boomeramg_agg_nl": 1, "pc_hypre_boome
                    "pc_hypre_boomeramg_relax_type_all": "Chebyshev"}}
 
 
+def git(*args):
+    """A git command's output in the repository, "" where there is no git (the CI's root file systems)."""
+    try:
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+
+
+def commit():
+    """The commit measured, for a table's header ("unknown" without git)."""
+    head = git("rev-parse", "--short", "HEAD") or "unknown"
+    return head + (" + uncommitted changes" if git("status", "--porcelain", "--untracked-files=no") else "")
+
+
 def floor_amg_options(amg, dim):
     """The floor's options for ``amg`` (gamg, ml or hypre) on a mesh of dimension ``dim``."""
     return {"gamg": FLOOR_OPTIONS, "ml": {**FLOOR_OPTIONS, "pc_type": "ml"}, "hypre": FLOOR_HYPRE[dim]}[amg]

@@ -32,14 +32,13 @@ import json
 import math
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from common import (ROOT, dofs, format_table, launch, machine_load, refine_uniformly,  # noqa: E402
+from common import (ROOT, commit, dofs, format_table, launch, machine_load, refine_uniformly,  # noqa: E402
                     run_harness)
 
 PROBLEMS = ("two_cylinders", "sphere_on_block", "large")
@@ -124,12 +123,7 @@ COLUMNS = [("problem", "problem", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{
 
 
 def header(argv):
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                            text=True).stdout.strip() or "?"
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
-                           capture_output=True, text=True).stdout.strip()
-    modified = " (work tree modified)" if dirty else ""
-    return (f"date: {datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC; commit: {commit}{modified}; "
+    return (f"date: {datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC; commit: {commit()}; "
             f"machine: {platform.node()} {platform.machine()}, {os.cpu_count()} CPUs, load {machine_load():.1f}; "
             f"command: benchmarks/two_bodies.py {' '.join(argv)}")
 
