@@ -22,7 +22,6 @@ import datetime
 import os
 import platform
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -35,6 +34,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from hypothesis import Phase, given, settings  # noqa: E402
 
 import fuzz_inputs as fz  # noqa: E402
+from common import commit  # noqa: E402  (benchmarks/, the script's folder)
 
 
 def parse_args(argv=None):
@@ -49,19 +49,6 @@ def parse_args(argv=None):
                    help="only these families of inputs (default: all)")
     p.add_argument("--batch", type=int, default=20, help="inputs per Hypothesis call (default 20)")
     return p.parse_args(argv)
-
-
-def git(*args):
-    try:
-        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return ""
-
-
-def commit():
-    head = git("rev-parse", "--short", "HEAD") or "unknown"
-    dirty = git("status", "--porcelain", "--untracked-files=no")
-    return head + (" + uncommitted changes" if dirty else "")
 
 
 class Campaign:
