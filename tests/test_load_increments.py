@@ -160,13 +160,15 @@ def auto_serial_process():
 
 
 @pytest.mark.parametrize("nprocs", [2, 3])
-def test_auto_increments_are_the_same_on_1_2_3_ranks(auto_serial_process, nprocs):
-    """The same increments (cuts included) and the same states on 2 and 3 ranks as on one. Each run in a
-    process of its own: a cut is decided by a count of Newton steps, and in the test process (after other
-    tests' solves) one rank's run once cut an increment once more than the same run alone (DOLFINx 0.9 in CI;
-    not found since), which is the process's history, not the partition's."""
+def test_auto_increments_reach_the_same_states_on_1_2_3_ranks(auto_serial_process, nprocs):
+    """2 and 3 ranks reach every step's end in the same state as one rank (each run in a process of its own).
+    The increments themselves may differ: a cut is decided by a count of Newton steps, and where the count sits
+    at solver.increment_newton_target round-off of the partition decides it (CI, DOLFINx 0.11: the shear back
+    cut 0, 2 and 1 times on 1, 2 and 3 ranks; on 0.5.2 and 0.9 the same cuts). Here the step ends do not depend
+    on the increments (1 to 8 fixed increments of the shear back end within 1e-10 of each other: the layer
+    slips), so they must agree to the solver's tolerance whatever the cuts."""
     serial, parallel = auto_serial_process, rows_in_a_process(nprocs)
-    assert sum(r["increment_cuts"] or 0 for r in serial) > 0  # (the path cuts)
-    assert [(r["step"], r["increment"], r["increment_cuts"]) for r in parallel] == \
-        [(r["step"], r["increment"], r["increment_cuts"]) for r in serial]
-    assert_same_states(parallel, serial)
+    assert sum(r["increment_cuts"] or 0 for r in serial) > 0 or sum(r["increment_cuts"] or 0 for r in parallel) > 0
+    ends = [[r for r in rows if float(r["load_time"]).is_integer()] for rows in (parallel, serial)]
+    assert [r["load_time"] for r in ends[1]] == [1.0, 2.0, 3.0]
+    assert_same_states(*ends)
