@@ -170,5 +170,8 @@ def test_auto_increments_reach_the_same_states_on_1_2_3_ranks(auto_serial_proces
     serial, parallel = auto_serial_process, rows_in_a_process(nprocs)
     assert sum(r["increment_cuts"] or 0 for r in serial) > 0 or sum(r["increment_cuts"] or 0 for r in parallel) > 0
     ends = [[r for r in rows if float(r["load_time"]).is_integer()] for rows in (parallel, serial)]
-    assert [r["load_time"] for r in ends[1]] == [1.0, 2.0, 3.0]
-    assert_same_states(*ends)
+    assert [r["load_time"] for r in ends[0]] == [r["load_time"] for r in ends[1]] == [1.0, 2.0, 3.0]
+    for key in ("elastic_energy", "contact_force", "friction_force"):  # (max_slip: the last increment's, not the state's)
+        scale = max(np.max(np.abs(np.atleast_1d(r[key]))) for r in ends[1])
+        for r, o in zip(*ends):
+            assert np.max(np.abs(np.subtract(r[key], o[key]))) <= TOL * scale, (o["load_time"], key)
