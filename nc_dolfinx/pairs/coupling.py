@@ -124,10 +124,7 @@ class PairCoupling:
     def add_residual(self, vector):
         """vector += Bᵀ W p(B u − g)."""
         self.scaled.setArray(self.w * self.pressure())
-        work = vector.duplicate()
-        self.B.multTranspose(self.scaled, work)
-        vector.axpy(1.0, work)
-        work.destroy()
+        self.B.multTransposeAdd(self.scaled, vector, vector)  # (no work vector on this hot path)
 
     def add_jacobian(self, matrix):
         """matrix += B0ᵀ W p'(B u − g) B0 (B0: B without the Dirichlet columns); the kink closed: for
