@@ -86,6 +86,13 @@ COLUMNS = {
     "pairK_contact_length": "with [[pairs]]: measure of {p > 0} on pair K's first face (2D; _contact_area in 3D)",
     "pairK_max_pressure": "with [[pairs]]: the largest pressure of pair K at its integration points (both faces)",
     "pairK_max_penetration": "with [[pairs]]: the largest (u_n − g_0)_+ of pair K at its integration points",
+    "pairK_friction_force_x": "with [[pairs]] friction: x component of the tangential force the second face's "
+                              "body exerts on the first's, pair K (_y, _z alike; part of pairK_force): the law's "
+                              "traction at the faces' vertices",
+    "pairK_stick_length": "with [[pairs]] friction: measure of the first face's vertices in contact that stick, "
+                          "pair K (2D; _stick_area in 3D)",
+    "pairK_slip_length": "with [[pairs]] friction: measure of the first face's vertices in contact that slip, "
+                         "pair K (2D; _slip_area in 3D)",
     "max_displacement": "max over the vertices of |u_h|",
     "l2_error": "‖u − u_h‖_0 (with an exact solution)",
     "h1_error": "‖u − u_h‖_1 (with an exact solution)",
@@ -135,7 +142,9 @@ def describe(name):
         return COLUMNS["reaction_GROUP_x"].replace("GROUP", repr(name[len("reaction_"):-2]), 1)
     if name.startswith("pair") and "_" in name and name[4:name.index("_")].isdigit():
         rest = name[name.index("_"):]
-        rest = {"_force_y": "_force_x", "_force_z": "_force_x", "_contact_area": "_contact_length"}.get(rest, rest)
+        rest = {"_force_y": "_force_x", "_force_z": "_force_x", "_contact_area": "_contact_length",
+                "_friction_force_y": "_friction_force_x", "_friction_force_z": "_friction_force_x",
+                "_stick_area": "_stick_length", "_slip_area": "_slip_length"}.get(rest, rest)
         return COLUMNS.get("pairK" + rest, "").replace("pair K", f"pair {name[4:name.index('_')]}") or None
     for vector in ("applied_load_", "friction_force_"):
         if name.startswith(vector):

@@ -52,7 +52,7 @@ def bind_pairs(problem, domain, fields, group_id, counts):
                                  tuple(fields.bodies.names[b] for b in bodies), given["c_n"], float(given["m_n"]),
                                  float(given["offset"]), given["passes"], int(degree), given["integration"],
                                  given["search_distance"],
-                                 dict(problem.parameters)))
+                                 dict(problem.parameters), given["friction"]))
     _check_each_body_held(fields)
 
 

@@ -32,7 +32,8 @@ from petsc4py import PETSc
 from .. import dolfinx_versions as versions
 from ..errors import InputError
 from ..problem.expressions import values_at
-from . import faces, search, segments
+from . import faces, operators, search, segments
+from .friction import PairFriction
 
 
 @dataclass
@@ -50,6 +51,7 @@ class Pair:
     integration: str    # "cut", "gauss" or "nodes" (:mod:`.segments`)
     search_distance: float
     parameters: dict    # the problem's parameters (c_n may be an expression of them and of x)
+    friction: object = None  # Coulomb's μ (number or expression text), or None: frictionless (:mod:`.friction`)
 
 
 @dataclass
@@ -77,11 +79,14 @@ class PairCoupling:
     def __init__(self, u, fields):
         self.u, self.fields = u, fields
         comm = u.function_space.mesh.comm
-        self.rows = []
+        self.rows, frictional = [], []
         for pair in fields.pairs:
             sides = [faces.face(fields.domain, u.function_space, pair.ids[i], pair.names[i]) for i in (0, 1)]
             for side in (0, 1):
                 self.rows.append(_pass(comm, pair, side, sides[side], sides[1 - side], fields))
+            if pair.friction is not None:
+                frictional.append((pair, sides))
+        self.friction = PairFriction(u, fields, frictional) if frictional else None  # (:mod:`.friction`)
         self.B = _gap_operator(u.function_space, self.rows)
         self.g = _concatenate([r.gap for r in self.rows])
         self.w = _concatenate([r.w for r in self.rows])
@@ -90,6 +95,17 @@ class PairCoupling:
         self.e, self.scaled, self.g_vec = (self.B.createVecLeft() for _ in range(3))
         self.g_vec.setArray(self.g)
         self.B0 = self.J = self.DB0 = None  # made by widen and the first add_jacobian, kept for this mesh
+
+    @property
+    def u(self):
+        """The displacement whose values the term reads (whoever asks last: solver, estimator, output)."""
+        return self._u
+
+    @u.setter
+    def u(self, u):
+        self._u = u
+        if getattr(self, "friction", None) is not None:
+            self.friction.u = u
 
     # --- the solver's protocol: widen K's sparsity, add to the residual and the Jacobian, the energy ----
 
@@ -102,13 +118,18 @@ class PairCoupling:
             versions.set_dirichlet_rows(keep, bcs, 0.0)  # (0 on the held dofs)
             self.B0 = self.B.copy()
             self.B0.diagonalScale(R=keep)
+            if self.friction is not None:
+                self.friction.drop_dirichlet_columns(keep)
             keep.destroy()
-        pattern = self.B.transposeMatMult(self.B)
-        pattern.zeroEntries()
+        patterns = [self.B.transposeMatMult(self.B)]
+        if self.friction is not None:
+            patterns.append(self.friction.widen_pattern())
         lgmaps = K.getLGMap()  # (DOLFINx assembles into copies of K by local indices)
-        K.axpy(1.0, pattern, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        for pattern in patterns:
+            pattern.zeroEntries()
+            K.axpy(1.0, pattern, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+            pattern.destroy()
         K.setLGMap(*lgmaps)
-        pattern.destroy()
         return K
 
     def penetration(self):
@@ -125,10 +146,14 @@ class PairCoupling:
         """vector += Bᵀ W p(B u − g)."""
         self.scaled.setArray(self.w * self.pressure())
         self.B.multTransposeAdd(self.scaled, vector, vector)  # (no work vector on this hot path)
+        if self.friction is not None:
+            self.friction.add_residual(vector)
 
-    def add_jacobian(self, matrix):
+    def add_jacobian(self, matrix, kind="frozen"):
         """matrix += B0ᵀ W p'(B u − g) B0 (B0: B without the Dirichlet columns); the kink closed: for
-        m_n = 1 a point with B u = g counts as in contact, as the foundation's closed Jacobian."""
+        m_n = 1 a point with B u = g counts as in contact, as the foundation's closed Jacobian. With friction
+        between the faces, the friction's Jacobian of ``kind`` ("frozen", "stiffened", "consistent":
+        :meth:`.friction.PairFriction.add_jacobian`)."""
         e = self.penetration()
         slope = np.where(e >= 0.0, self.c_n * self.m_n * np.abs(e) ** (self.m_n - 1), 0.0)  # (0^0 = 1: m_n = 1)
         self.scaled.setArray(self.w * slope)
@@ -142,17 +167,22 @@ class PairCoupling:
         else:
             self.B0.transposeMatMult(self.DB0, result=self.J)
         matrix.axpy(1.0, self.J, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        if self.friction is not None:
+            self.friction.add_jacobian(matrix, kind)
 
     def energy(self):
         """Σ_q w_q c_n/(m_n + 1) (B u − g)_+^{m_n + 1} over all ranks."""
         e = np.maximum(self.penetration(), 0.0)
-        return self.u.function_space.mesh.comm.allreduce(
+        normal = self.u.function_space.mesh.comm.allreduce(
             float(np.sum(self.w * self.c_n / (self.m_n + 1) * e ** (self.m_n + 1))), op=MPI.SUM)
+        return normal if self.friction is None else normal + self.friction.energy()
 
     def destroy(self):
         for obj in (self.B, self.B0, self.J, self.DB0, self.e, self.scaled, self.g_vec):
             if obj is not None:
                 obj.destroy()
+        if self.friction is not None:
+            self.friction.destroy()
 
     # --- what the output and the estimator read ---------------------------------------------------------
 
@@ -218,30 +248,13 @@ def _first(a, b, _=None):
 
 
 def _gap_operator(space, rows_list):
-    """B (points × dofs) as a PETSc MPIAIJ matrix; rows: this rank's points, columns: V's dofs."""
-    index_map, bs = space.dofmap.index_map, space.dofmap.index_map_bs
-    gdim = bs
-    blocks, values = [], []
-    for rows in rows_list:
-        a_dofs = rows.face.dofs[rows.facet]                        # (n, k)
-        a_values = rows.bary[:, :, None] * rows.normal[:, None, :]   # (n, k, gdim)
-        b_values = -rows.projection.bary[:, :, None] * rows.normal[:, None, :]
-        dofs = np.concatenate([a_dofs, rows.projection.dofs], axis=1)  # (n, 2k)
-        vals = np.concatenate([a_values, b_values], axis=1)            # (n, 2k, gdim)
-        blocks.append((dofs[:, :, None] * bs + np.arange(gdim)[None, None, :]).reshape(len(dofs), 2 * gdim * gdim))
-        values.append(vals.reshape(len(dofs), 2 * gdim * gdim))
-    n_local = sum(len(r.w) for r in rows_list)
-    width = 2 * gdim * gdim
-    columns = np.concatenate(blocks) if blocks else np.zeros((0, width), dtype=np.int64)
-    data = np.concatenate(values) if values else np.zeros((0, width))
-    order = np.argsort(columns, axis=1, kind="stable")
-    columns = np.take_along_axis(columns, order, axis=1)
-    data = np.take_along_axis(data, order, axis=1)
-    indptr = np.arange(0, (n_local + 1) * width, width, dtype=PETSc.IntType)
-    local_columns = index_map.size_local * bs
-    global_columns = index_map.size_global * bs
-    B = PETSc.Mat().createAIJ(((n_local, PETSc.DECIDE), (local_columns, global_columns)),
-                              csr=(indptr, columns.ravel().astype(PETSc.IntType), data.ravel()),
-                              comm=space.mesh.comm)
-    B.assemble()
-    return B
+    """B (points × dofs, :func:`.operators.point_operator`): row q reads (u(x_q) − u(Π x_q))·ν_A."""
+    gdim = space.dofmap.index_map_bs
+    k = gdim  # (the vertices of a facet)
+    def joined(get, shape):
+        arrays = [get(rows) for rows in rows_list]
+        return np.concatenate(arrays) if arrays else np.zeros(shape)
+    normal = joined(lambda r: r.normal, (0, gdim))
+    own = (joined(lambda r: r.face.dofs[r.facet], (0, k)).astype(np.int64), joined(lambda r: r.bary, (0, k)))
+    other = (joined(lambda r: r.projection.dofs, (0, k)).astype(np.int64), -joined(lambda r: r.projection.bary, (0, k)))
+    return operators.point_operator(space, normal[:, None, :], [own, other])

@@ -14,7 +14,10 @@ def pair_quantities(u, fields):
     ``pair{k}_force`` (the vector the second face's body exerts on the first's),
     ``pair{k}_resultant`` (∫ p over the first face: the normal force, as ``contact_resultant`` for Γ_C),
     ``pair{k}_contact_length`` (2D) or ``_contact_area`` (3D) (the measure of {p > 0} on the first face),
-    ``pair{k}_max_pressure`` and ``pair{k}_max_penetration`` (at the integration points of both faces)."""
+    ``pair{k}_max_pressure`` and ``pair{k}_max_penetration`` (at the integration points of both faces);
+    with ``friction``: ``pair{k}_friction_force`` (the tangential part of ``pair{k}_force``: the law's
+    traction at the faces' vertices, :mod:`.friction`), ``pair{k}_stick_length``/``_slip_length`` (2D;
+    ``_area`` in 3D)."""
     coupling = fields.pair_coupling(u)
     pressure, penetration = coupling.pressure(), np.maximum(coupling.penetration(), 0.0)
     comm, gdim = fields.domain.comm, fields.dim
@@ -32,12 +35,36 @@ def pair_quantities(u, fields):
             peak = max(peak, float(p.max(initial=0.0)))
             deepest = max(deepest, float(penetration[where].max(initial=0.0)))
         k = pair.number
+        if pair.friction is not None:
+            frictional = _friction_quantities(coupling.friction, pair, comm, gdim)
+            force += frictional.pop("friction_force")
+            out[f"pair{k}_friction_force"] = frictional.pop("friction_force_total")
+            out.update({f"pair{k}_{name}": value for name, value in frictional.items()})
         out[f"pair{k}_force"] = [float(f) for f in comm.allreduce(force, op=MPI.SUM)]
         out[f"pair{k}_resultant"] = comm.allreduce(resultant, op=MPI.SUM)
         out[f"pair{k}_contact_{'length' if gdim == 2 else 'area'}"] = comm.allreduce(measure, op=MPI.SUM)
         out[f"pair{k}_max_pressure"] = comm.allreduce(peak, op=MPI.MAX)
         out[f"pair{k}_max_penetration"] = comm.allreduce(deepest, op=MPI.MAX)
     return out
+
+
+def _friction_quantities(friction, pair, comm, gdim):
+    """A frictional pair's ``friction_force`` (this rank's part: Σ w σ_t over the first face's vertices
+    minus over the second's, σ_t the traction on each face's own body, :mod:`.friction`), and over all
+    ranks ``friction_force`` again (the sum), ``stick_length``/``slip_length`` (2D; ``_area`` in 3D: the
+    measure of the first face's vertices in contact that stick, that slip)."""
+    force, stick, slip = np.zeros(gdim), 0.0, 0.0
+    for rows, where, active, sticking, traction in friction.vertex_states():
+        if rows.pair is not pair:
+            continue
+        force += (1.0 if rows.side == 0 else -1.0) * rows.w @ traction
+        if rows.side == 0:
+            stick += float(rows.measure[sticking].sum())
+            slip += float(rows.measure[active & ~sticking].sum())
+    size = "length" if gdim == 2 else "area"
+    total = comm.allreduce(force, op=MPI.SUM)
+    return {"friction_force": force, "friction_force_total": [float(f) for f in total],
+            f"stick_{size}": comm.allreduce(stick, op=MPI.SUM), f"slip_{size}": comm.allreduce(slip, op=MPI.SUM)}
 
 
 def pair_pressure(u, fields, number=1, side=0):

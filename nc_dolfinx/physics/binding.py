@@ -215,12 +215,15 @@ def _friction_law(problem, fields):
     V = versions.p1_space(msh, (fields.dim,))
     if contact["friction"] is not None:
         c_t, m_t = to_ufl(contact["friction"], msh, params) * fields.c_n, fields.m_n
+    elif contact["c_t"] is None:  # friction between the faces of [[pairs]] only: none on Γ_C
+        c_t, m_t = fem.Constant(msh, PETSc.ScalarType(0.0)), fields.m_n
     else:
         c_t, m_t = to_ufl(contact["c_t"], msh, params), fem.Constant(msh, PETSc.ScalarType(contact["m_t"]))
     epsilon = fem.Constant(msh, PETSc.ScalarType(contact["slip_regularisation"]))
     return friction.FrictionLaw(c_t, m_t, epsilon, fem.Function(V, name="previous_displacement"), fem.Function(V),
                                 friction.vertex_normal(V, fields.ds_of("contact")), fem.Function(V, name="previous_traction"),
-                                "contact.friction" if contact["friction"] is not None else "contact.c_t")
+                                "contact.friction" if contact["friction"] is not None else
+                                "contact.c_t" if contact["c_t"] is not None else "pairs.friction")
 
 
 def _name(domain, group_id):

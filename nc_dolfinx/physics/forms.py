@@ -125,7 +125,7 @@ class NonlinearForms:
     # Added to j_t_jacobian on some of the passes' Newton steps (friction.slip_stiffening, newton._newton_jacobian)
     slip_stiffening: ufl.Form = None
     # A term of (7) that is not a UFL form: contact between two bodies ([[pairs]], nc_dolfinx.pairs.coupling),
-    # with widen(K, bcs), add_residual(vector), add_jacobian(matrix), energy() at the current u
+    # with widen(K, bcs), add_residual(vector), add_jacobian(matrix, kind), energy() at the current u
     operator_term: object = None
 
     @property

@@ -61,7 +61,13 @@ def traction_at(u, fields):
     included)."""
     law = fields.friction
     depth = forms.law_penetration(u, fields, law.normal)
-    return friction.at_vertices(friction.tangential_traction(u, depth, law), law).x.array.copy()
+    traction = friction.at_vertices(friction.tangential_traction(u, depth, law), law)
+    pairs = fields.pair_coupling(u).friction if fields.pairs else None
+    if pairs is not None:  # (the faces of frictional [[pairs]]: their law's traction at their vertices)
+        local, values = pairs.traction()
+        traction.x.array.reshape(-1, fields.dim)[local] = values
+        traction.x.scatter_forward()
+    return traction.x.array.copy()
 
 
 def state_after(u, fields):

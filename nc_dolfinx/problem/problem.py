@@ -92,8 +92,9 @@ class Problem:
 
     @property
     def frictional(self):
-        """Whether Γ_C has friction (``contact.friction`` or ``contact.c_t`` given, μ = 0 included)."""
-        return is_frictional(self.values["contact"], self.given)
+        """Whether the problem has friction: on Γ_C (``contact.friction`` or ``contact.c_t`` given, μ = 0
+        included) or between the faces of a pair (``pairs.friction`` given)."""
+        return is_frictional(self.values["contact"], self.given) or has_pair_friction(self.values)
 
     def at_parameters(self, values):
         """This problem with the parameters ``values`` ({name: number}) set, their definitions replaced,
@@ -246,7 +247,7 @@ def _check_consistency(values, given):
             raise InputError(f"contact.{key} must be >= 0, got {value}")
     if dim == 3:
         check_exponent(contact["m_n"], 3)
-    _check_friction(contact, given, values["parameters"])
+    _check_friction(contact, given, values["parameters"], has_pair_friction(values))
 
     _check_pairs(values, roles, dim, given)
 
@@ -271,14 +272,16 @@ def _check_pairs(values, roles, dim, given):
                 raise InputError(f"boundary group {group!r} is a face of pairs[{seen[group]}] and pairs[{number}]: "
                                  "a face belongs to one pair")
             seen[group] = number
-        value = pair["c_n"]
-        if not (isinstance(value, str) and uses_coordinates(value)) and to_float(value, values["parameters"]) < 0:
-            raise InputError(f"pairs[{number}].c_n must be >= 0, got {value}")
+        for key in ("c_n", "friction"):
+            value = pair[key]
+            if value is not None and not (isinstance(value, str) and uses_coordinates(value)) \
+                    and to_float(value, values["parameters"]) < 0:
+                raise InputError(f"pairs[{number}].{key} must be >= 0, got {value}")
         if dim == 3:
             check_exponent(pair["m_n"], 3)
 
 
-def _check_friction(contact, given, parameters):
+def _check_friction(contact, given, parameters, pairs_frictional=False):
     """Friction is given as Coulomb's μ (``friction``) or as the bound c_t (u_n − g_0)_+^m_t, not both."""
     if "contact.friction" in given and ("contact.c_t" in given or "contact.m_t" in given):
         raise InputError("give contact.friction (Coulomb: c_t = μ c_n, m_t = m_n) or contact.c_t with "
@@ -287,7 +290,7 @@ def _check_friction(contact, given, parameters):
         missing = "m_t" if "contact.c_t" in given else "c_t"
         raise InputError(f"contact.{missing} is missing: the friction bound c_t (u_n − g_0)_+^m_t needs both "
                          "contact.c_t and contact.m_t")
-    if "contact.slip_regularisation" in given and not is_frictional(contact, given):
+    if "contact.slip_regularisation" in given and not is_frictional(contact, given) and not pairs_frictional:
         raise InputError("contact.slip_regularisation has no effect without friction (contact.friction or "
                          "contact.c_t)")
     for key in ("friction", "c_t"):
@@ -297,6 +300,11 @@ def _check_friction(contact, given, parameters):
             shown = value if not isinstance(value, str) or value.strip() == f"{to_float(value, parameters):g}" \
                 else f"'{value}' = {to_float(value, parameters):g}"
             raise InputError(f"contact.{key} must be >= 0, got {shown}")
+
+
+def has_pair_friction(values):
+    """Whether a [[pairs]] entry gives ``friction`` (μ = 0 included)."""
+    return any(pair["friction"] is not None for pair in values.get("pairs", ()))
 
 
 def is_frictional(contact, given):

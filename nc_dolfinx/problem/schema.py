@@ -246,6 +246,10 @@ KEYS = [
         "a lumped rule: node-to-segment, for comparison: it fails the patch test)", "cut", ("cut", "gauss", "nodes")),
     Key("pairs.quadrature_degree", "integer", "the Gauss rule on each facet of the faces (default: 8 in 2D, "
         "6 in 3D)", check=_at_least_one),
+    Key("pairs.friction", "expression", "Coulomb's friction coefficient μ ≥ 0 between the pair's faces: "
+        "|σ_t| ≤ μ c_n (u_n − g_0)_+^m_n with the slip the jump of the tangential displacement across the "
+        "pair, regularised as the foundation's (`contact.slip_regularisation`), evaluated at the faces' "
+        "vertices (default: frictionless)"),
     Key("pairs.search_distance", "number", "points of one face farther than this from the other face take no "
         "part in the pair, and their number is reported (default: every point takes part)", check=_positive),
     Key("reference.model_fraction", "number", "the part of the body that is modelled (0.25 for a quarter "
@@ -545,7 +549,8 @@ def steps_of(data, parameters, given):
     return out
 
 
-PAIR_KEYS = ("faces", "c_n", "m_n", "offset", "passes", "integration", "quadrature_degree", "search_distance")
+PAIR_KEYS = ("faces", "c_n", "m_n", "offset", "passes", "integration", "quadrature_degree", "friction",
+             "search_distance")
 MAX_PAIRS = 100
 # Keys required of a body on the foundation, optional when [[pairs]] are its only contacts (their defaults then)
 WITHOUT_FOUNDATION = {"mesh.contact": [], "contact.c_n": 0.0, "contact.m_n": 1.0}

@@ -488,8 +488,10 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         self.K.copy(matrix, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         fem_petsc.assemble_matrix(matrix, contact_form, bcs=self.bcs)
         matrix.assemble()
-        if self.operator_term is not None:
-            self.operator_term.add_jacobian(matrix)
+        if self.operator_term is not None:  # (which of the Γ_C Jacobians: the term's own is the same kind)
+            kind = ("consistent" if contact_form is self.consistent else
+                    "stiffened" if contact_form is self.stiffened_jacobian else "frozen")
+            self.operator_term.add_jacobian(matrix, kind)
 
     def _rebuild_preconditioner(self, A):
         """P = A; PETSc rebuilds the preconditioner at the next Krylov solve (while P is left untouched it
