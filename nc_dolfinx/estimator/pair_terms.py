@@ -4,9 +4,11 @@ On a facet F of either face, with ν its outward normal and p the pair's pressur
 with the normal jump across the pair, :mod:`nc_dolfinx.pairs.coupling`: on the second face the pressure of
 its own points projected onto the first, i.e. the same pressure carried through Π),
 
-    η_3K² += h_K ‖σ_t(u_h)‖²_F,      η_4K² += h_K ‖p + σ_n(u_h)‖²_F
+    η_3K² += h_K ‖σ_t(u_h) − σ_t‖²_F,      η_4K² += h_K ‖p + σ_n(u_h)‖²_F
 
-— the terms of the foundation's Γ_C (frictionless: the tangential traction vanishes), taken with the pair's
+— the terms of the foundation's Γ_C (σ_t the law's tangential traction: 0 without friction; with
+``pairs.friction`` the law's traction at the face's vertices, P1 between them, :mod:`nc_dolfinx.pairs.friction`,
+as the foundation's law is read on Γ_C), taken with the pair's
 integration points (the facets cut where the other face's vertices project, :mod:`nc_dolfinx.pairs.segments`).
 What is proved: Theorem 6's upper bound for one body on a foundation; for two bodies the same argument runs on
 each body with the other's trace as data (the residual estimators for contact interfaces of Belhachmi & Hecht,
@@ -30,15 +32,31 @@ def pair_terms(u, fields, coupling):
     pressure = coupling.pressure()
     per_cell = dolfinx.la.vector(cell_map, bs=2)
     terms = per_cell.array.reshape(-1, 2)
+    law = _frictional_traction(u, fields, coupling)
     for rows, where in coupling.by_rows():
         cells = rows.face.cells[rows.facet]
         traction = np.einsum("nij,nj->ni", sigma[cells], rows.normal)
         normal_stress = np.einsum("ni,ni->n", traction, rows.normal)
         tangential = traction - normal_stress[:, None] * rows.normal
+        if law is not None:  # σ_t(u_h) against the law's traction, P1 between the face's vertices
+            at_points = np.einsum("nk,nkd->nd", rows.bary, law[rows.face.local_dofs[rows.facet]])
+            tangential -= at_points - np.einsum("ni,ni->n", at_points, rows.normal)[:, None] * rows.normal
         np.add.at(terms[:, 0], cells, rows.measure * np.einsum("ni,ni->n", tangential, tangential))
         np.add.at(terms[:, 1], cells, rows.measure * (pressure[where] + normal_stress) ** 2)
     per_cell.scatter_reverse(versions.SCATTER_ADD)
     return terms[:cell_map.size_local, 0].copy(), terms[:cell_map.size_local, 1].copy()
+
+
+def _frictional_traction(u, fields, coupling):
+    """With friction between the faces: the law's traction σ_t at every local vertex (n_vertices, gdim),
+    0 off the frictional faces (:meth:`~nc_dolfinx.pairs.friction.PairFriction.traction`); else None."""
+    if coupling.friction is None:
+        return None
+    traction = fem.Function(u.function_space)
+    local, values = coupling.friction.traction()
+    traction.x.array.reshape(-1, fields.dim)[local] = values
+    traction.x.scatter_forward()
+    return traction.x.array.reshape(-1, fields.dim)
 
 
 def _cellwise_stress(u, fields):
