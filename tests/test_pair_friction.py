@@ -143,6 +143,9 @@ def test_friction_path_with_refinement_is_independent_of_ranks(blocks, tmp_path)
             for name in names:
                 assert np.allclose(a[name], b[name], rtol=1e-8, atol=1e-12), (n, name, a[name], b[name])
     assert rows[1][-1]["pair1_friction_force"][0] < 0
+    written = (tmp_path / "out2" / "solution.xdmf").read_text()
+    assert "pair_traction" in written and "pair_stick_slip" in written
+    assert "stick_slip\"" not in written.replace("pair_stick_slip\"", "")  # (Γ_C has no friction here)
 
 
 def test_negative_mu_is_refused_naming_the_key(blocks, tmp_path):

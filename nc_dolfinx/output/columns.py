@@ -130,6 +130,9 @@ FIELDS = {
     "region": "DG0 material region id of the cell (VTU files)",
     "pair_pressure": "with [[pairs]]: P1 pressure on both faces of every pair (the mean of the pair's integration "
                      "points around each vertex), 0 elsewhere",
+    "pair_traction": "with [[pairs]] friction: P1 tangential traction of the law at the faces' vertices (on each "
+                     "face's own body), 0 elsewhere",
+    "pair_stick_slip": "with [[pairs]] friction: at the faces' vertices 0 out of contact, 1 stick, 2 slip",
     "body": "with [[pairs]]: the body of the cell, 0, 1, … by its lowest vertex (VTU files)",
 }
 

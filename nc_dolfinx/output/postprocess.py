@@ -42,7 +42,7 @@ def friction_fields(u, fields):
     the state and the traction written beside it are the same evaluation of the law, so they cannot
     disagree. Without friction: an empty list."""
     law = fields.friction
-    if law is None:
+    if not fields.friction_on_foundation():
         return []
     depth = forms.law_penetration(u, fields, law.normal)
     traction = friction.at_vertices(friction.tangential_traction(u, depth, law), law, "tangential_traction")
@@ -78,4 +78,21 @@ def pair_fields(u, fields):
     total.x.array[seen] /= weight.x.array[seen]
     total.x.scatter_forward()
     n_owned = msh.topology.index_map(msh.topology.dim).size_local
-    return [total], fields.bodies.of_cell[:n_owned].astype(np.int32)
+    return [total, *_pair_friction_fields(u, coupling)], fields.bodies.of_cell[:n_owned].astype(np.int32)
+
+
+def _pair_friction_fields(u, coupling):
+    """With friction between pairs, the law at the faces' vertices (:mod:`nc_dolfinx.pairs.friction`; P1,
+    nodal values, 0 elsewhere): ``pair_traction`` (σ_t on each face's own body) and ``pair_stick_slip``
+    (0 out of contact, 1 stick, 2 slip, as the foundation's ``stick_slip``)."""
+    if coupling.friction is None:
+        return []
+    msh, gdim = u.function_space.mesh, u.function_space.mesh.geometry.dim
+    traction = fem.Function(u.function_space, name="pair_traction")
+    state = fem.Function(versions.p1_space(msh), name="pair_stick_slip")
+    for rows, where, active, sticking, values in coupling.friction.vertex_states():
+        traction.x.array.reshape(-1, gdim)[rows.local] = values
+        state.x.array[rows.local] = active * (2.0 - sticking)
+    for fn in (traction, state):
+        fn.x.scatter_forward()
+    return [traction, state]

@@ -64,6 +64,11 @@ class Fields:
         """The geometric dimension of the mesh (2: plane strain, 3)."""
         return self.domain.mesh.geometry.dim
 
+    def friction_on_foundation(self):
+        """Whether Γ_C has friction (the law exists also for friction between [[pairs]] only, then with
+        c_t = 0 on Γ_C: no friction quantity or field of Γ_C is reported for it)."""
+        return self.friction is not None and self.friction.key != "pairs.friction"
+
     def ds_of(self, role):
         """Measure over all facets of a role ('dirichlet', 'neumann', 'contact', 'symmetry'); a role with no
         group (Γ_C when [[pairs]] are the only contacts) integrates over no facet."""

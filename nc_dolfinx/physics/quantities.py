@@ -45,7 +45,7 @@ def solution_quantities(u, fields):
     max_penetration = comm.allreduce(float(np.max(penetration.x.array[:n_owned], initial=0.0)), MPI.MAX)
     pressure = contact_projection(p, fields, "contact_pressure")
     max_pressure = comm.allreduce(float(np.max(pressure.x.array[:n_owned], initial=0.0)), MPI.MAX)
-    frictional = friction_quantities(u, fields, forces) if fields.friction is not None else {}
+    frictional = friction_quantities(u, fields, forces) if fields.friction_on_foundation() else {}
     balanced = [forces.applied, forces.contact, *forces.reactions.values()]
     balanced += [forces.friction] if forces.friction is not None else []
     return {
