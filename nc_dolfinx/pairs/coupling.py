@@ -24,6 +24,7 @@ the estimator and the output). B is a PETSc MPIAIJ matrix: its rows are the poin
 their facets, its columns the dofs wherever they are owned: nothing of global size on one rank.
 """
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from mpi4py import MPI
@@ -33,6 +34,7 @@ from .. import dolfinx_versions as versions
 from ..errors import InputError
 from ..problem.expressions import values_at
 from . import faces, operators, search, segments
+from .cache import kept
 from .friction import PairFriction
 
 
@@ -81,7 +83,8 @@ class PairCoupling:
         comm = u.function_space.mesh.comm
         self.rows, frictional = [], []
         for pair in fields.pairs:
-            sides = [faces.face(fields.domain, u.function_space, pair.ids[i], pair.names[i]) for i in (0, 1)]
+            sides = [kept(fields.domain.mesh, ("face", pair.ids[i]), partial(
+                faces.face, fields.domain, u.function_space, pair.ids[i], pair.names[i])) for i in (0, 1)]
             for side in (0, 1):
                 self.rows.append(_pass(comm, pair, side, sides[side], sides[1 - side], fields))
             if pair.friction is not None:
@@ -200,7 +203,9 @@ def _concatenate(arrays):
 
 def _pass(comm, pair, side, own, other, fields):
     """The rows of one pass: ``own``'s Gauss points projected onto ``other``."""
-    x, w, bary, facet, projection = segments.points_and_projection(comm, own, other, pair.degree, pair.integration)
+    x, w, bary, facet, projection = kept(fields.domain.mesh, ("points", pair.ids, side, pair.degree, pair.integration),
+                                         partial(segments.points_and_projection, comm, own, other, pair.degree,
+                                                 pair.integration))
     normal = own.normals[facet]
     gap = np.einsum("ij,ij->i", projection.point - x, normal) + pair.offset
     _check_facing(comm, pair, side, normal, projection)

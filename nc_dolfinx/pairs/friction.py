@@ -28,6 +28,7 @@ stiffening along the slip of :func:`~nc_dolfinx.physics.friction.slip_stiffening
 asks for it.
 """
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from mpi4py import MPI
@@ -40,6 +41,7 @@ from ..errors import InputError
 from ..physics.friction import SLIP_STIFFENING, on_contact
 from ..problem.expressions import values_at
 from . import operators, search
+from .cache import kept
 
 
 @dataclass
@@ -232,8 +234,23 @@ class LawState:
 
 
 def _vertex_rows(comm, space, pair, side, own, other):
-    """The owned vertices of ``own`` with their lumped measures and normals (summed over the facets of every
-    rank that has some), projected onto ``other``."""
+    """The rows of ``own``'s owned vertices (:func:`_vertices_and_projection`) with the pair's law."""
+    local, x, measure, normal, projection = kept(space.mesh, ("vertices", pair.ids, side), partial(
+        _vertices_and_projection, comm, space, own, other))
+    gap = np.einsum("ij,ij->i", projection.point - x, normal) + pair.offset
+    weight = measure * (0.5 if pair.passes == "two" else 1.0 if side == 0 else 0.0)
+    if pair.search_distance is not None:
+        weight = np.where(projection.distance > pair.search_distance, 0.0, weight)
+    c_n = _values(pair.c_n, x, pair.parameters)
+    mu = _values(pair.friction, x, pair.parameters)
+    if not np.all(np.isfinite(mu)) or np.any(mu < 0):
+        raise InputError(f"pairs[{pair.number}].friction must be finite and >= 0 on '{pair.names[side]}'")
+    return VertexRows(pair, side, local, x, measure, weight, normal, gap, mu * c_n, pair.m_n, projection)
+
+
+def _vertices_and_projection(comm, space, own, other):
+    """The owned vertices of ``own`` (local dof blocks, coordinates) with their lumped measures and normals
+    (summed over the facets of every rank that has some), and their projections onto ``other``."""
     gdim = own.vertices.shape[2]
     index_map = space.dofmap.index_map
     sums = dolfinx.la.vector(index_map, bs=1 + 2 * gdim)  # m_x, ∫ ν φ_x, m_x x
@@ -249,16 +266,7 @@ def _vertex_rows(comm, space, pair, side, own, other):
     normal = owned[local, 1:1 + gdim]
     normal = normal / np.linalg.norm(normal, axis=1)[:, None]
     x = owned[local, 1 + gdim:] / measure[:, None]
-    projection = search.project(comm, x, other)
-    gap = np.einsum("ij,ij->i", projection.point - x, normal) + pair.offset
-    weight = measure * (0.5 if pair.passes == "two" else 1.0 if side == 0 else 0.0)
-    if pair.search_distance is not None:
-        weight = np.where(projection.distance > pair.search_distance, 0.0, weight)
-    c_n = _values(pair.c_n, x, pair.parameters)
-    mu = _values(pair.friction, x, pair.parameters)
-    if not np.all(np.isfinite(mu)) or np.any(mu < 0):
-        raise InputError(f"pairs[{pair.number}].friction must be finite and >= 0 on '{pair.names[side]}'")
-    return VertexRows(pair, side, local, x, measure, weight, normal, gap, mu * c_n, pair.m_n, projection)
+    return local, x, measure, normal, search.project(comm, x, other)
 
 
 def _values(expression, x, parameters):
