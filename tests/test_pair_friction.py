@@ -28,14 +28,22 @@ def blocks(tmp_path_factory):
     return folder / "b2.msh"
 
 
-def sheared_blocks(mesh, dt, mu=MU, m_n=1.0, steps=True, refine="none", friction=True):
+@pytest.fixture(scope="module")
+def blocks3d(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("friction_blocks3d")
+    two_bodies.stacked_blocks_3d(str(folder / "b3.msh"))
+    return folder / "b3.msh"
+
+
+def sheared_blocks(mesh, dt, mu=MU, m_n=1.0, steps=True, refine="none", friction=True, dim=2):
     pair = {"faces": ["upper_face", "lower_face"], "c_n": 1e3, "m_n": m_n}
     if friction:
         pair["friction"] = "mu"
+    held = ["lower_left"] if dim == 2 else ["lower_x0", "lower_y0", "upper_y0"]  # (3D: sheared along x only)
     raw = {"title": "sheared blocks",
-           "mesh": {"file": str(mesh), "dirichlet": ["bottom", "top"], "symmetry": ["lower_left"]},
+           "mesh": {"file": str(mesh), "dirichlet": ["bottom", "top"], "symmetry": held},
            "parameters": {"d": 0.0 if steps else 0.01, "dt": 0.0 if steps else dt, "mu": mu},
-           "loads": {"u_D": {"bottom": ["free", "0"], "top": ["dt", "-d"]}},
+           "loads": {"u_D": {"bottom": [*["free"] * (dim - 1), "0"], "top": ["dt", *["free"] * (dim - 2), "-d"]}},
            "material": {"E": 100.0, "nu": 0.3},
            "pairs": [pair],
            "adapt": {"refine": refine, **({"levels": 2} if refine != "none" else {})}}
@@ -96,19 +104,27 @@ def test_mu_zero_is_the_frictionless_pair(blocks):
     assert with_zero["pair1_stick_length"] == 0.0
 
 
-def test_sliding_block_carries_mu_times_its_pressure(blocks):
+@pytest.mark.parametrize("dim", [2, 3])
+def test_sliding_block_carries_mu_times_its_pressure(blocks, blocks3d, dim):
     """dt far past the limit: every vertex in contact slips, and the friction force is μ Σ w p at the
     vertices, along −x on the upper body (it is dragged along +x)."""
-    problem = nc.Problem.from_dict(sheared_blocks(blocks, 0.05, steps=False), "slide")
+    mesh = blocks if dim == 2 else blocks3d
+    problem = nc.Problem.from_dict(sheared_blocks(mesh, 0.05, steps=False, dim=dim), "slide")
     solution = nc.solve(problem, nc.build_domain(problem, MPI.COMM_WORLD))
     q = nc.solution_quantities(solution.u, solution.fields)
     term = solution.fields.pair_coupling(solution.u).friction
     state = term._state(solution.u)
-    assert state.active.any() and not state.stick.any()
+    assert MPI.COMM_WORLD.allreduce(bool(state.active.any()), op=MPI.LOR) and not state.stick.any()
     # (both faces' vertices drag the upper body back: σ_t = −F ŝ on each face's own body, ŝ opposite)
     pressure_sum = MPI.COMM_WORLD.allreduce(float(term.w @ (state.bound / MU)), op=MPI.SUM)
-    assert q["pair1_friction_force"][0] == pytest.approx(-MU * pressure_sum, rel=1e-10)
-    assert q["pair1_slip_length"] == pytest.approx(q["pair1_contact_length"], rel=1e-12)
+    if dim == 2:  # (every slip along ±x)
+        assert q["pair1_friction_force"][0] == pytest.approx(-MU * pressure_sum, rel=1e-10)
+    else:  # (the slip directions turn a little with the blocks' lateral strain: |Σ F ŝ| ≤ Σ F)
+        assert 0.999 * MU * pressure_sum < np.linalg.norm(q["pair1_friction_force"]) <= MU * pressure_sum * (1 + 1e-12)
+        assert q["pair1_friction_force"][0] < 0
+    size = "length" if dim == 2 else "area"
+    assert q[f"pair1_slip_{size}"] == pytest.approx(q[f"pair1_contact_{size}"], rel=1e-12)
+    assert np.abs(q["pair1_friction_force"][1:dim - 1]).max(initial=0.0) < 0.05 * abs(q["pair1_friction_force"][0])
     # against the normal force of the cut rule: the vertices' lumped rule differs from it by O(h²)
     assert abs(q["pair1_friction_force"][0]) / q["pair1_resultant"] == pytest.approx(MU, rel=0.02)
     assert q["force_balance"] < 1e-8
