@@ -20,6 +20,9 @@ What each mesh is for:
 ``two_cylinders_2d``
     2D Hertz and Cattaneo-Mindlin between two cylinders (plane strain): two half-discs touching at the
     origin, graded there, with different chord lengths on the two contact arcs.
+``cattaneo_cylinders_2d``
+    Cattaneo-Mindlin between two identical cylinders (case cattaneo_cylinders): ``two_cylinders_2d`` with
+    R1 = R2 = 1, finer at the contact (chords of 0.00075 and 0.000525 within 0.08 of the origin).
 ``sphere_on_block_3d``
     3D Hertz, a sphere on an elastic half-space: a quarter ball on a quarter block (symmetry planes x = 0,
     y = 0), touching at the origin, graded there.
@@ -32,7 +35,8 @@ long: DOLFINx's Plaza refinement then refines alike on any number of ranks (gmsh
 
 Run: ``/usr/bin/python3 meshes/two_bodies.py NAME OUT.msh [--h H] [...]``, NAME one of stacked_blocks_2d,
 stacked_blocks_3d, two_cylinders_2d, sphere_on_block_3d, mirrored (with ``--input IN.msh [--axis-value A]
-[--axis x|y|z]``); ``--help`` lists the options. Python: ``import two_bodies; two_bodies.stacked_blocks_2d("out.msh")``.
+[--axis x|y|z]``), cattaneo_cylinders_2d; ``--help`` lists the options. Python:
+``import two_bodies; two_bodies.stacked_blocks_2d("out.msh")``.
 """
 import argparse
 import math
@@ -483,6 +487,20 @@ def _restrict_to(field_tag, surface, curves):
     field.setNumbers(field_tag, "CurvesList", curves)
 
 
+def cattaneo_cylinders_2d(path, h=None, h_contact=0.00075, x_fine=0.08, jitter=0.01):
+    """Write the mesh of the case cattaneo_cylinders to ``path``: :func:`two_cylinders_2d` with two identical
+    radii R1 = R2 = 1 (with one material: Dundurs' β = 0), finer at the contact than two_cylinders.msh.
+
+    The case presses the cylinders to a Hertz half-width a ≈ 0.052 and then locates the stick zone
+    |x| < c, c/a = (1 − Q/(μP))^{1/2}, on these chords: h_contact = 0.00075 on the upper arc (a/70), 0.7 x that
+    on the lower one (a/100; non-matching), within x_fine = 0.08 ≈ 1.5 a of the origin, growing with slope 0.2
+    to h (default 1/8) away from it. The stick-zone edge is found to within about a chord, h_contact/a ≈ 0.014
+    in c/a (the tolerance of tests/test_two_body_friction.py rests on it; twice these chords gave up to one
+    chord's error, 0.028). Returns what two_cylinders_2d returns (the smallest x-distance between the two
+    arcs' nodes near the origin, before the jitter)."""
+    return two_cylinders_2d(path, 1.0, 1.0, h=h, h_contact=h_contact, x_fine=x_fine, jitter=jitter)
+
+
 # --- 4. a sphere on a block (3D Hertz) -------------------------------------------------------------
 
 def sphere_on_block_3d(path, R=1.0, h=None, h_contact=None, L=None, H=None, x_fine=0.15, growth=0.35,
@@ -566,7 +584,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("name", choices=["stacked_blocks_2d", "stacked_blocks_3d", "mirrored", "two_cylinders_2d",
-                                         "sphere_on_block_3d"])
+                                         "sphere_on_block_3d", "cattaneo_cylinders_2d"])
     parser.add_argument("out", help="the .msh file to write")
     parser.add_argument("--h", type=float, help="size far from the contact (two_cylinders_2d, sphere_on_block_3d); "
                         "stacked blocks: the lower block's, the upper's 2/3 of it (default 1/6)")
@@ -594,6 +612,9 @@ def main(argv=None):
         mirrored(args.input, args.out, args.axis_value, axis=None if args.axis is None else "xyz".index(args.axis))
     elif args.name == "two_cylinders_2d":
         two_cylinders_2d(args.out, args.R1, args.R2, args.h, args.h_contact, jitter=args.jitter)
+    elif args.name == "cattaneo_cylinders_2d":
+        cattaneo_cylinders_2d(args.out, args.h, 0.00075 if args.h_contact is None else args.h_contact,
+                              jitter=args.jitter)
     else:
         sphere_on_block_3d(args.out, args.R, args.h, args.h_contact, jitter=args.jitter)
 
