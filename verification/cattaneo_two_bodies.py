@@ -25,6 +25,8 @@ the Hertz half-width a = 2 sqrt(P R/(π E*)) (R = 1/2, E* = E/(2(1 − ν²))) i
     Cattaneo–Mindlin state does not depend on the path.
 (5) ``narrowing``: the computed contact zone narrows under the shear (a/a1 − 1, a1 the frictionless half-width
     of step 1), which the half-plane theory does not have; the same path at dn/4 and dn/16 (dt scaled alike).
+(6) ``frictionless slide``: the path with μ = 0 throughout: the upper body slides by about dt; where each face's
+    pressure lies, the contact's width, its peak and the force's x-component (with ``--quick`` one dt).
 
 Quantities (history rows of nc.adapt, per pair 1): P = pair1_force[1] (the normal force per unit length on
 the upper body), Q = |pair1_friction_force[0]| (the tangential force between the bodies), Q_n = |pair1_force[0]|
@@ -214,6 +216,24 @@ def measure(problem, domain=None):
             "dofs": rows[-1]["dofs"], "chord": chord(result.final.solution.domain), "history": rows}
 
 
+def frictionless_slide(dt):
+    """The case's path with μ = 0 throughout and the shear dt in one increment: the upper body slides by about
+    dt on the lower one. Returns a/a1 − 1, the peak pressure over step 1's, |pair1_force_x|/P and, per face
+    (side 0 the upper, 1 the lower), the pressure-weighted mean x of the pair's integration points."""
+    result = nc.adapt(case_problem(increments=1, dt=dt, mu=0.0))
+    first, last = result.history[0], result.history[-1]
+    u, fields = result.final.solution.u, result.final.solution.fields
+    centres = []
+    for side in (0, 1):
+        x, p = nc.pair_pressure(u, fields, 1, side)
+        sums = COMM.allreduce(np.array([float(x[:, 0] @ p), float(p.sum())]), op=MPI.SUM)
+        centres.append(sums[0] / sums[1])
+    return {"dt": dt, "narrowing": last["pair1_contact_length"] / first["pair1_contact_length"] - 1,
+            "peak": last["pair1_max_pressure"] / first["pair1_max_pressure"],
+            "force_x": abs(last["pair1_force"][0]) / last["pair1_force"][1], "centres": centres,
+            "a1": first["pair1_contact_length"] / 2}
+
+
 # --- output --------------------------------------------------------------------------------------------
 
 def table(header, rows):
@@ -333,6 +353,15 @@ def main(argv=None):
                   f"{q['Q_over_muP']:.4f}", f"{q['narrowing']:+.2%}", f"{q['difference']:+.4f}"] for q in run["shear"]]
     emit("\n**(5) The contact's narrowing under the shear against a/R** (dn and dt scaled together; R = 1/2)\n")
     emit(table(["dn", "a1", "a1/R", "h/a1", "Q/(μP)", "a/a1 − 1", "c/a_H − theory"], rows))
+
+    slides = [frictionless_slide(dt) for dt in ((5e-4,) if args.quick else (1e-4, 5e-4, 2.5e-3))]
+    emit("\n**(6) A frictionless slide** (μ = 0 throughout, the upper top moved by dt at fixed dn; h the upper "
+         "face's chord; centre: the pressure-weighted mean x of each face's integration points)\n")
+    emit(table(["dt", "dt/h", "a/a1 − 1", "peak p / step 1's", "abs(force_x)/P", "centre, upper face / a1",
+                "centre, lower face / a1"],
+               [[f"{r['dt']:g}", f"{r['dt'] / case['chord']:.2f}", f"{r['narrowing']:+.2%}", f"{r['peak']:.3f}",
+                 f"{r['force_x']:.4f}", f"{r['centres'][0] / r['a1']:+.4f}", f"{r['centres'][1] / r['a1']:+.4f}"]
+                for r in slides]))
 
     if COMM.rank == 0:
         out = Path(args.out)
