@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """A frictional load cycle on benchmarks/family.py's friction members (issue 48): what an increment costs.
 
-    /usr/bin/python3 benchmarks/load_cycle.py [--np 1 2] [--members friction friction3d ...]
-        [--increments 20 auto] [--predictor secant none] [--cells 128] [--cells3d 16] [--smoke]
+    /usr/bin/python3 benchmarks/load_cycle.py [--np 1 2] [--members friction friction3d 1-1 ...]
+        [--increments 20 auto] [--predictor auto secant tangent none] [--cells 128] [--cells3d 16] [--smoke]
 
 Each friction member's body and law (family.py's ``member_problem``: the unit square or cube, E = 1, the
 weight f = −0.5 e_y (e_z), c_n/E, m_n, μ) is unclamped and loaded on its top by a traction (q, −p)
@@ -19,7 +19,14 @@ clamped on top), the fastest of three. Reported per member and rank count:
   with ``auto`` the time of the discarded (cut) solves is added to the increment that replaced them;
 - ``cold``: the member's cold frictional solve as family.py measures it (``family.measure``, u = 0, the
   clamped member) over the floor;
-- ``Nwt``: the Newton steps of the whole cycle; ``incr``: its increments; ``cuts`` (auto).
+- ``Nwt``: the Newton steps of the whole cycle; ``incr``: its increments; ``cuts`` (auto); ``lin``: its Krylov
+  iterations (the tangent predictor's included); ``PC``: its preconditioner set-ups (factorisations with the
+  direct preset); ``pred``: the increments whose tangent prediction was kept; ``cycle``: the whole cycle's time.
+
+A frictionless member named in ``--members`` (``1-1``, ``3d-100-2``, ...: the predictors' comparison) is held
+laterally by symmetry planes (left; 3D: left and front), since a frictionless foundation holds no lateral
+motion, and goes round a press cycle instead: p to 0.5, 1.5, back to 0 and to 0.5 again (P = 1, 2, 0.5, 1),
+in the same 4 + 4 + 8 + 4 increments.
 
 Targets (issue 48): mean <= 2, worst <= 5, cold <= 5 (2D) / 4 (3D). Every timed cycle follows an untimed
 one with one increment a step (JIT compilation, first touch of memory). ``--smoke``: 16 (2D) and 4 (3D)
@@ -43,6 +50,10 @@ SMOKE_CELLS = {2: 16, 3: 4}
 # (parameter values at each step's end, increments of the 20-increment cycle); q in units of 0.8 μP
 PRESS, LIMIT_FRACTION = 0.5, 0.8
 STEPS = [({"p": PRESS}, 4), ({"q": "qmax"}, 4), ({"q": "-qmax"}, 8), ({"q": 0.0}, 4)]
+# Frictionless members (the predictors' comparison): no shear holds, so their cycle presses, unloads and presses
+# again (p to 0.5, 1.5, back to 0, 0.5: P = 1, 2, 0.5, 1) in the same 20 increments
+STEPS_FRICTIONLESS = [({"p": PRESS}, 4), ({"p": 3 * PRESS}, 4), ({"p": 0.0}, 8), ({"p": PRESS}, 4)]
+PREDICTORS = ("auto", "secant", "tangent", "none")
 TARGETS = {"mean": 2.0, "worst": 5.0, "cold": {2: 5.0, 3: 4.0}}
 # The shear q on the top (height H = 1) tips the body over its edge once q H > P W/2 (width W = 1): beyond
 # q = 0.5 P no equilibrium exists, so the members with 0.8 μ > 0.5 (μ = 1) are listed as "overturns".
@@ -56,12 +67,15 @@ def cycle_problem(problem, increments, predictor):
     mesh, dim = raw["mesh"], problem.values["mesh"]["box"] and 3 or 2
     mesh["dirichlet"] = []
     mesh["neumann"] = list(mesh.get("neumann", [])) + ["top"]
-    mu = float(problem.values["contact"]["friction"])
+    mu = float(problem.values["contact"].get("friction") or 0.0)
     weight = 0.5  # f = -0.5 on the unit square/cube
     raw["parameters"] = {"p": 0.0, "q": 0.0, "qmax": LIMIT_FRACTION * mu * (weight + PRESS)}
     raw["loads"]["g"] = {"top": ["q", "-p"] if dim == 2 else ["q", "0", "-p"]}
+    if mu == 0.0:  # (a frictionless foundation holds no lateral motion: symmetry planes do)
+        mesh["symmetry"] = ["left"] if dim == 2 else ["left", "front"]
+        mesh["neumann"] = [name for name in mesh["neumann"] if name not in mesh["symmetry"]]
     raw["steps"] = [{"set": dict(values), "increments": n if increments == "20" else "auto"}
-                    for values, n in STEPS]
+                    for values, n in (STEPS if mu > 0 else STEPS_FRICTIONLESS)]
     raw["solver"] = dict(raw.get("solver", {}), predictor=predictor)
     return nc.Problem.from_dict(raw, problem.name + "-cycle")
 
@@ -72,7 +86,9 @@ def run_cycle(problem, domain, comm):
     rows = []
 
     def on_level(level):
-        rows.append({"solve": rank_max(comm, level.solution.stats.time),
+        stats = level.solution.stats
+        rows.append({"solve": rank_max(comm, stats.time), "linear": stats.linear_iterations,
+                     "pc_setups": stats.pc_setups, "predicted": stats.predictor == "tangent",
                      "cut": rank_max(comm, level.row.get("time_cut", 0.0)),
                      "newton": level.row["newton_iterations"], "cuts": level.row.get("increment_cuts", 0),
                      "reason": level.row["converged_reason"], "load_time": level.row["load_time"]})
@@ -110,6 +126,8 @@ def worker(args):
     costs = [(r["solve"] + r["cut"]) / t_floor for r in rows]
     row.update(mean=sum(costs) / len(costs), worst=max(costs), incr=len(rows),
                newton=sum(r["newton"] for r in rows), cuts=sum(r["cuts"] for r in rows),
+               linear=sum(r["linear"] for r in rows), pc_setups=sum(r["pc_setups"] for r in rows),
+               predicted=sum(r["predicted"] for r in rows),
                worst_at=rows[costs.index(max(costs))]["load_time"],
                converged=all(r["reason"].startswith("CONVERGED") for r in rows), costs=costs)
     if comm.rank == 0:
@@ -118,7 +136,9 @@ def worker(args):
 
 COLUMNS = [("member", "member", "{}"), ("np", "np", "{}"), ("dofs", "dofs", "{}"),
            ("increments", "increments", "{}"), ("predictor", "predictor", "{}"), ("incr", "incr", "{}"),
-           ("cuts", "cuts", "{}"), ("newton", "Nwt", "{}"), ("t_floor", "floor [s]", "{:.3f}"),
+           ("cuts", "cuts", "{}"), ("newton", "Nwt", "{}"), ("linear", "lin", "{}"),
+           ("pc_setups", "PC", "{}"), ("predicted", "pred", "{}"), ("t_cycle", "cycle [s]", "{:.2f}"),
+           ("t_floor", "floor [s]", "{:.3f}"),
            ("mean", "mean", "{:.2f}"), ("worst", "worst", "{:.2f}"), ("worst_at", "at t", "{:.3g}"),
            ("cold", "cold", "{:.2f}"), ("met", "targets", "{}")]
 
@@ -135,14 +155,14 @@ def driver(args):
     vcommon = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(vcommon)
     tmp = tempfile.mkdtemp(prefix="nc_load_cycle_")
-    members = [m for m in family.MEMBERS if m.friction is not None
-               and (m.name in args.members or m.group in args.members or "all" in args.members)]
+    members = [m for m in family.MEMBERS if m.name in args.members
+               or (m.friction is not None and (m.group in args.members or "all" in args.members))]
     rows = []
     print(f"load average at the start: {machine_load():.2f}", file=sys.stderr, flush=True)
-    for member in [m for m in members if LIMIT_FRACTION * m.friction > OVERTURNS]:
+    for member in [m for m in members if LIMIT_FRACTION * (m.friction or 0.0) > OVERTURNS]:
         rows += [{"member": member.name, "np": nprocs, "dim": member.dim, "met": "overturns", "converged": True}
                  for nprocs in args.np]
-    for member in [m for m in members if LIMIT_FRACTION * m.friction <= OVERTURNS]:
+    for member in [m for m in members if LIMIT_FRACTION * (m.friction or 0.0) <= OVERTURNS]:
         for nprocs in args.np:
             for increments in args.increments:
                 for predictor in args.predictor:
@@ -184,7 +204,7 @@ def main(argv=None):
                    help="friction member names or groups (friction, friction3d) or all")
     p.add_argument("--np", type=int, nargs="+", default=[1, 2])
     p.add_argument("--increments", nargs="+", default=["20"], choices=("20", "auto"))
-    p.add_argument("--predictor", nargs="+", default=["secant"], choices=("secant", "none"))
+    p.add_argument("--predictor", nargs="+", default=["auto"], choices=PREDICTORS)
     p.add_argument("--cells", type=int, default=CELLS[2], help="2D: cells a side")
     p.add_argument("--cells3d", type=int, default=CELLS[3], help="3D: cells a side")
     p.add_argument("--repeat", type=int, default=1, help="timed (floor, solve) pairs of the cold solve")

@@ -59,6 +59,14 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
     ``[solver] petsc_options``. ``load_steps``, ``preconditioner_matrix``: over the problem's [solver].
     Raises InputError if SNES does not converge.
     """
+    return _solve_with(problem, domain, initial, petsc_options, load_steps, preconditioner_matrix, previous_state)[0]
+
+
+def _solve_with(problem, domain, initial=None, petsc_options=None, load_steps=None, preconditioner_matrix=None,
+                previous_state=None, tangent_from=None, keep_solver=False):
+    """:func:`solve`, and (the tangent predictor of a load path) from ``tangent_from``, the kept solver of the
+    previous state (``initial``) on this mesh; ``keep_solver``: the solver is returned alive, for the next
+    increment's prediction (the caller destroys it), else destroyed. Returns (Solution, solver or None)."""
     settings = problem.values["solver"]
     fields = bind(problem, domain)
     V = versions.p1_space(domain.mesh, (domain.mesh.geometry.dim,))
@@ -83,10 +91,13 @@ def solve(problem, domain, initial=None, petsc_options=None, load_steps=None, pr
                              options, preconditioner_matrix or settings["preconditioner_matrix"],
                              None if fields.friction is None else partial(slip_state.advance, fields=fields))
     try:
-        stats = solver.solve(steps)
-    finally:
+        stats = solver.solve(steps, tangent_from=tangent_from)
+    except BaseException:
         solver.destroy()
-    return Solution(u, fields, stats)
+        raise
+    if not keep_solver:
+        solver.destroy()
+    return Solution(u, fields, stats), solver if keep_solver else None
 
 
 def _on_mesh(function, V):
@@ -203,7 +214,8 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     from the previous state on the current mesh, and refines per ``settings`` after each step's last
     increment; the mesh only grows along the path (a state moves to a refined mesh exactly, see
     :func:`refine`). History rows then carry the ``step``, its ``increment`` and the path's ``load_time``.
-    Each increment starts Newton from the secant prediction of its end state (``solver.predictor``); a step
+    Each increment starts Newton from a prediction of its end state (``solver.predictor``: secant, tangent,
+    none, or auto, per law and dimension: see _Loop); a step
     with ``increments = "auto"`` sizes its own increments, cutting in two those that fail or need more than
     ``solver.increment_newton_target`` Newton steps (rows: ``increment_cuts``, ``cut_reason``; see _Loop).
 
@@ -227,24 +239,33 @@ def adapt(problem, settings=None, domain=None, comm=None, petsc_options=None, on
     loop.path_parameters = list(dict.fromkeys(name for step in problem.values["steps"] for name in step["set"]))
     states = problem.load_path()
     state = next(states)
-    for following in (*states, None):
-        domain, level = loop.step(state, domain)
-        if following is None:
-            return Result(loop.history, level)
-        state = following
+    try:
+        for following in (*states, None):
+            domain, level = loop.step(state, domain)
+            if following is None:
+                return Result(loop.history, level)
+            state = following
+    finally:
+        loop.release_solvers()
 
 
 class _Loop:
     """The levels of :func:`adapt`, step after step of a load path: what runs on from one to the next
     (the history, the last solution, the times of the refinement that made the mesh).
 
-    **The predictor** (``solver.predictor``, default ``"secant"``). Each increment of a path starts Newton
-    from a prediction of its end state: where the parameters move on along the line of the last increment,
-    Δp_k+1 = α Δp_k with α > 0 (within a step: α = (t_k+1 − t_k)/(t_k − t_k−1)), the secant extrapolation
-    u_k + α (u_k − u_k−1) of the last two converged states (on the same mesh); elsewhere (the first two
-    solves, a turn of the path, a new mesh) the previous state u_k. Only the initial guess changes: the
-    solver imposes the Dirichlet values itself, and the friction law's memory (``state_start``: u_prev and
-    σ_t,prev) is the last converged state, whatever the guess. A solve from a prediction that fails is
+    **The predictor** (``solver.predictor``, default ``"auto"``: AUTO_PREDICTOR's choice for the law, with
+    friction or without, and the dimension, from benchmarks/load_cycle.py). Each increment of a path starts
+    Newton from a prediction of its end state. ``"secant"``: where the parameters move on along the line of
+    the last increment, Δp_k+1 = α Δp_k with α > 0 (within a step: α = (t_k+1 − t_k)/(t_k − t_k−1)), the
+    secant extrapolation u_k + α (u_k − u_k−1) of the last two converged states (on the same mesh);
+    elsewhere (the first two solves, a turn of the path, a new mesh) the previous state u_k. ``"tangent"``:
+    from the second solve on, on the same mesh, u_k plus the tangent response to the increment's loads and
+    Dirichlet values, one linear solve with the preconditioner of u_k's solver
+    (:mod:`nc_dolfinx.solver.predictor`; that solver is kept alive until the next state is accepted, a cut
+    increment's is discarded, and after a solve that needed no Newton step, which built no preconditioner,
+    the one before is kept). ``"none"``: u_k. Only the initial guess changes: the solver imposes the
+    Dirichlet values itself, and the friction law's memory (``state_start``: u_prev and σ_t,prev) is the
+    last converged state, whatever the guess. A solve from a prediction that fails is
     solved again from u_k before anything else is done.
 
     **Self-sizing increments** (a step's ``increments = "auto"``, :meth:`_auto_step`): the step is tried
@@ -263,6 +284,9 @@ class _Loop:
         self.path_parameters = []  # the parameters [[steps]] set: a column param_NAME each
         # the secant predictor's two last converged states: (u, parameters), the last first
         self.converged = []
+        # the tangent predictor's solvers: that of self.previous (kept alive for its preconditioner), and that of
+        # the last solve until it is accepted (discarded with a cut increment)
+        self.kept_solver, self.pending_solver = None, None
 
     def step(self, state, domain):
         """Solve one state (a step with ``increments = "auto"``: every increment of it); after a step's last
@@ -273,9 +297,18 @@ class _Loop:
         solution = self._solve(state, domain)
         return self._levels(state, domain, solution)
 
-    def _guess(self, state):
-        """The Newton initial guess of ``state``: the secant prediction, or the previous state (see the class)."""
-        if state.problem.values["solver"]["predictor"] == "none" or len(self.converged) < 2:
+    def _guess(self, state, domain):
+        """The Newton initial guess of ``state`` and the solver the tangent predictor starts from (or None): the
+        secant prediction, or the previous state, with that state's solver for the tangent one (see the class)."""
+        predictor = predictor_of(state.problem, domain.mesh.geometry.dim)
+        if predictor == "tangent":
+            kept = self.kept_solver
+            usable = kept is not None and kept.u.function_space.mesh is domain.mesh is self.previous.function_space.mesh
+            return self.previous, kept if usable else None
+        return self._secant_guess(state, predictor), None
+
+    def _secant_guess(self, state, predictor):
+        if predictor == "none" or len(self.converged) < 2:
             return self.previous
         (u_k, p_k), (u_before, p_before) = self.converged
         if u_k is not self.previous or u_k.function_space.mesh is not u_before.function_space.mesh:
@@ -292,17 +325,24 @@ class _Loop:
         fails); the time in ``self.times["solve"]``."""
         number = len(self.history)
         t = time.perf_counter()
-        guess = self._guess(state)
+        guess, source = self._guess(state, domain)
         steps = None if number == 0 else 1
+        # (kept for the next increment of a path; one kept on a coarser mesh is of no more use)
+        keep = bool(state.step) and predictor_of(state.problem, domain.mesh.geometry.dim) == "tangent"
+        self._drop_pending_solver()
+        if source is None:
+            self.release_solvers()
         try:
-            solution = solve(state.problem, domain, guess, self.petsc_options, steps, previous_state=self.state_start)
+            solution, self.pending_solver = _solve_with(state.problem, domain, guess, self.petsc_options, steps,
+                                                        previous_state=self.state_start, tangent_from=source,
+                                                        keep_solver=keep)
         except InputError:
-            if guess is self.previous:
+            if guess is self.previous and source is None:
                 raise
             if domain.comm.rank == 0:
                 log.info("the predicted initial guess failed: solved again from the previous state")
-            solution = solve(state.problem, domain, self.previous, self.petsc_options, steps,
-                             previous_state=self.state_start)
+            solution, self.pending_solver = _solve_with(state.problem, domain, self.previous, self.petsc_options,
+                                                        steps, previous_state=self.state_start, keep_solver=keep)
         self.times["solve"] = time.perf_counter() - t
         return solution
 
@@ -333,6 +373,7 @@ class _Loop:
                                      f"{len(reasons)} cuts; see solver.max_increment_cuts)") from None
                 reason, tried = f"failed: {err}", None
             if reason is not None:
+                self._drop_pending_solver()
                 cut_time += time.perf_counter() - t
                 reasons.append(reason)
                 size = actual / 2
@@ -380,6 +421,7 @@ class _Loop:
             level = Level(number, solution, est, row, marked, stop, last_of_state=bool(stop) or not state.ends_step)
             self._record(level)
             self.previous, self.times = solution.u, {}
+            self._accept_pending_solver(solution.stats)
             if level.last_of_state:  # (the predictor's states: each state's finest solution)
                 self.converged = [(solution.u, dict(state.problem.parameters))] + self.converged[:1]
             if solution.fields.friction is not None:  # the next state slips from here; a finer level from the same
@@ -391,6 +433,32 @@ class _Loop:
             domain = refinement.refine(domain, marked)  # marked is None for uniform refinement
             self.times = {"refine": time.perf_counter() - t}
 
+    def _drop_pending_solver(self):
+        if self.pending_solver is not None:
+            self.pending_solver.destroy()
+        self.pending_solver = None
+
+    def _accept_pending_solver(self, stats):
+        """The last solve's solver becomes the tangent predictor's, the former one goes; unless the last solve
+        built no preconditioner (it needed no Newton step: its P is K, not a Jacobian) and the former one lives
+        on the same mesh: the former's is then the Jacobian of the nearest state."""
+        pending, kept = self.pending_solver, self.kept_solver
+        if pending is None:
+            return
+        if stats.pc_setups == 0 and kept is not None and kept.u.function_space.mesh is pending.u.function_space.mesh:
+            self._drop_pending_solver()
+            return
+        if kept is not None:
+            kept.destroy()
+        self.kept_solver, self.pending_solver = pending, None
+
+    def release_solvers(self):
+        """Destroy the solvers kept for the tangent predictor (at the end of the path, or on an error)."""
+        self._drop_pending_solver()
+        if self.kept_solver is not None:
+            self.kept_solver.destroy()
+        self.kept_solver = None
+
     def _record(self, level):
         if self.on_level:
             t = time.perf_counter()
@@ -399,6 +467,36 @@ class _Loop:
         self.history.append(level.row)
         if level.solution.domain.comm.rank == 0:
             log.info(progress_line(level.row))
+
+
+# solver.predictor = "auto": the predictor per law (friction or not) and dimension, from benchmarks/load_cycle.py
+# (docs/src/guide/load_paths.md, "The predictors measured")
+AUTO_PREDICTOR = {(False, 2): "tangent", (True, 2): "secant", (False, 3): "secant", (True, 3): "secant"}
+
+
+def predictor_of(problem, dim):
+    """The predictor ``problem``'s increments use in dimension ``dim``: ``solver.predictor``, "auto" resolved by
+    AUTO_PREDICTOR (with friction: μ > 0)."""
+    predictor = problem.values["solver"]["predictor"]
+    if predictor != "auto":
+        return predictor
+    return AUTO_PREDICTOR[(_frictional(problem), dim)]
+
+
+def _frictional(problem):
+    """Whether the problem has friction: the foundation's (``contact.friction`` or ``contact.c_t`` given, not 0;
+    an expression counts) or a pair's (``friction`` given in a [[pairs]] entry)."""
+    if any(pair.get("friction") is not None for pair in problem.values.get("pairs") or ()):
+        return True
+    for key in ("friction", "c_t"):
+        value = problem.values["contact"].get(key)
+        try:
+            if value is None or float(value) == 0.0:
+                continue
+        except (TypeError, ValueError):  # (an expression)
+            pass
+        return True
+    return False
 
 
 def secant_ratio(p_before, p_k, p_next):

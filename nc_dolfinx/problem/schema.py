@@ -178,12 +178,16 @@ KEYS = [
         ("auto", "bulk", "jacobian")),
     Key("solver.load_steps", "integer", "load increments on level 0", 1,
         check=_all(_at_least_one, _at_most(MAX_LOAD_STEPS, "increments, each a solve"))),
-    Key("solver.predictor", "choice", "the initial guess of each increment of a load path from the third solve "
-        "on: `secant` extrapolates the last two converged states, u_k + α (u_k − u_k−1), where the parameters "
-        "move on along the same line (α the ratio of the two parameter increments; elsewhere, at a turn of the "
-        "path, the previous state itself); `none` starts from the previous state. The converged states are "
-        "the same to the solver's tolerance; with friction the law's memory stays the last converged state",
-        "secant", ("secant", "none")),
+    Key("solver.predictor", "choice", "the initial guess of each increment of a load path: `secant` (from the "
+        "third solve on) extrapolates the last two converged states, u_k + α (u_k − u_k−1), where the "
+        "parameters move on along the same line (α the ratio of the two parameter increments; elsewhere, at a "
+        "turn of the path, the previous state itself); `tangent` (from the second) adds to u_k the tangent "
+        "response to the increment's loads and prescribed displacements, one linear solve with the last "
+        "state's preconditioner (a back-substitution with its factorisation), kept if it lowers the residual; "
+        "`none` starts from the previous state; `auto` chooses per law and dimension as measured (the guide's "
+        "load paths): `tangent` without friction in 2D, `secant` with friction and in 3D. The converged states "
+        "are the same to the solver's tolerance; with friction the law's memory stays the last converged state",
+        "auto", ("auto", "secant", "tangent", "none")),
     Key("solver.max_increment_cuts", "integer", "`increments = \"auto\"` steps: how many times an increment may "
         "be halved (its smallest size: the step over 2^cuts) before the failure that needs more is an error",
         8, check=_all(_non_negative, _at_most(30, "halvings"))),

@@ -34,6 +34,7 @@ from .fixed_point import FrictionFixedPoint
 from .forcing import Forcing
 from .linear import OWN_DEFAULTS, PRECONDITIONER_MATRICES, option_is_true, resolve_options, rigid_body_modes
 from .petsc_options import PREFIX, set_petsc_options, together
+from .predictor import same_layout, tangent_prediction
 from .recovery import Recoveries
 
 
@@ -50,6 +51,8 @@ class SolveStats:
     pc_type: str = ""               # the preconditioner in force (cholesky, gamg, hypre, or the user's)
     friction_passes: int = 0        # passes of the fixed point on the friction bound (0: no friction)
     friction_newton: int = 0        # of the Newton steps, those of the consistent Newton finish (fixed_point)
+    predictor: str = ""             # "tangent" (or "tangent refused") if the tangent predictor ran (.predictor)
+    predictor_its: int = 0          # its Krylov iterations (counted in linear_iterations too)
 
 
 REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
@@ -783,13 +786,17 @@ class NonlinearSolver(Recoveries, FrictionFixedPoint):
         finally:
             start.destroy()
 
-    def solve(self, load_steps=1):
-        """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads."""
+    def solve(self, load_steps=1, tangent_from=None):
+        """Solve from the current ``u`` (the initial guess), in ``load_steps`` increments of the loads.
+        ``tangent_from``: the solver of the previous load state u = u_k (same mesh), whose preconditioner
+        makes the tangent prediction of one increment first (:mod:`.predictor`)."""
         stats, start = SolveStats(), time.perf_counter()
         x = versions.petsc_vec(self.u).copy()  # (its Dirichlet dofs are set in each load step)
         self._reset_preconditioner_state()
         recoveries = []
         try:
+            if tangent_from is not None and load_steps == 1 and same_layout(self, tangent_from):
+                tangent_prediction(self, x, tangent_from, stats)
             for step in range(1, load_steps + 1):
                 self.load_factor = step / load_steps
                 if step > 1 and self.end_of_increment is not None:  # (the slip of this increment, not the last's)
