@@ -13,10 +13,13 @@ appears (two or three rounds; nothing is exchanged but the search's own messages
 In 3D each triangle near the other face (within its own size) is cut by the other face's triangles that
 overlap it, projected onto its plane (Sutherland–Hodgman clipping), and the rule applied on each piece (a fan
 of triangles): the patch test to 5e-10 (the pieces' tiling is accepted to 1e-9 of the triangle's area). The
-overlapping triangles are found by the search too (those closest to the rule's points, then a flood from them
-across their edges and vertices until the pieces tile the triangle). A triangle that the pieces do not tile
-(the other face ends there, or is not a graph over its plane) and one far from the other face keep a
-composite rule on ``4^levels`` sub-triangles (``COMPOSITE_LEVELS_3D``).
+candidates are the other face's triangles facing it within reach (:func:`.search.triangles_over`: across its
+normal their bounding spheres come within its own, along it within its distance to the other face plus twice
+its diameter), found across ranks as the search finds closest facets (one bounding box per rank), and all
+(triangle, candidate) pairs are clipped at once, with numpy over the pairs. A triangle that the pieces do
+not tile (the other face ends there, or is not a graph over its plane) keeps a composite rule on
+``4^levels`` sub-triangles (``COMPOSITE_LEVELS_3D``), one far from the other face the rule on the whole
+triangle.
 """
 import numpy as np
 
@@ -126,140 +129,117 @@ def _clipped_triangles(comm, own, other, degree):
     it, projected onto T's plane (Sutherland–Hodgman), and the rule applied on the pieces (fans of triangles);
     a facet that the pieces do not tile (the other face ends, or is not a graph over T's plane) keeps the
     composite rule, one far from the other face (farther than its own size: the law acts nowhere there) the
-    rule on the whole facet. Searches: the whole facets' points once, the probes of the facets not yet tiled
-    in each round (few), and the final points once."""
-    x, _, _, facet = quadrature_points(own, degree)
+    rule on the whole facet. The candidates S of a facet are the other face's triangles facing it within
+    reach of it (:func:`~.search.triangles_over`: its own distance to the other face and twice its diameter
+    along its normal); all pairs are clipped at once (numpy over the pairs). Searches: the whole facets'
+    points once (their distance to the other face, and the far facets' projection), the candidates once,
+    and the new points once."""
+    x, w, bary, facet = quadrature_points(own, degree)
     projection = search.project(comm, x, other)
     distance = np.full(own.count, np.inf)
     np.minimum.at(distance, facet, projection.distance)
     close = distance <= np.sqrt(own.sizes)
-    near = [dict() for _ in range(own.count)]
-    _collect(near, facet[close[facet]], projection.vertices[close[facet]])
-    pieces, waiting = {}, np.flatnonzero(close)
-    for _ in range(MAX_ROUNDS):
-        for f in waiting:
-            pieces[f] = _tiling(own, f, near[f])
-        waiting = [f for f in waiting if pieces[f] is None]
-        # where the pieces leave a gap, a triangle of the other face overlaps only a sliver: look closer
-        probes, probe_facet = _probes(own, waiting, near)
-        new = _collect(near, probe_facet, search.project(comm, probes, other).vertices)
-        if not comm.allreduce(new):
-            break
-    for f in waiting:
-        pieces[f] = _tiling(own, f, near[f])
-    x, w, bary, facet = _points(own, degree, close, pieces)
-    return x, w, bary, facet, search.project(comm, x, other)
-
-
-def _tiling(own, f, candidates):
-    """The triangles (a list of (3, 3)) that the candidates cut facet ``f`` into, or None if they do not tile it."""
-    T, normal = own.vertices[f], own.normals[f]
-    inward = _inward_normals(T, normal)
-    triangles = [t for S in candidates.values() for t in _fan(_clip(_onto_plane(S, T, normal), T, inward))]
-    area = sum(0.5 * np.linalg.norm(_cross(t[1] - t[0], t[2] - t[0])) for t in triangles)
-    return triangles if triangles and abs(area - own.sizes[f]) <= 1e-9 * own.sizes[f] else None
-
-
-def _points(own, degree, close, pieces):
-    """The rule on the pieces of every tiled facet, the composite rule on the other close ones, the rule on
-    the whole facet on the far ones."""
-    bary_ref, weights = gauss_rule(3, degree)
-    whole = quadrature_points(own, degree)
+    near = np.flatnonzero(close)
+    diameter = np.linalg.norm(own.vertices - np.roll(own.vertices, 1, axis=1), axis=2).max(axis=1)
+    pair, S = search.triangles_over(comm, own.vertices[near], own.normals[near],
+                                    distance[near] + 2 * diameter[near], other)
+    pair = near[pair]
+    triangles, of = _pieces(own, pair, S)
+    area = _areas(triangles)
+    covered = np.bincount(of, weights=area, minlength=own.count)
+    pieces = np.bincount(of, minlength=own.count)
+    tiled = close & (pieces > 0) & (np.abs(covered - own.sizes) <= 1e-9 * own.sizes)
+    keep = tiled[of]
+    cut = _rule_on(own, degree, triangles[keep], area[keep], of[keep])
     composite = _composite_triangles(own, degree, COMPOSITE_LEVELS_3D)
-    parts = []
-    for f in range(own.count):
-        triangles = pieces.get(f)
-        if triangles is None:
-            rule = composite if close[f] else whole
-            mine = rule[3] == f
-            parts.append(tuple(part[mine] for part in rule))
-            continue
-        points = np.concatenate([bary_ref @ t for t in triangles])
-        areas = [0.5 * np.linalg.norm(_cross(t[1] - t[0], t[2] - t[0])) for t in triangles]
-        parts.append((points, np.concatenate([a * weights for a in areas]), _barycentric(points, own.vertices[f]),
-                      np.full(len(points), f)))
-    if not parts:
-        return np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
-    x, w, bary, facet = (np.concatenate(column) for column in zip(*parts))
-    return x, w, bary, facet.astype(np.int64)
+    composite = tuple(part[(close & ~tiled)[composite[3]]] for part in composite)
+    new = tuple(np.concatenate([a, b]) for a, b in zip(cut, composite))
+    far = ~close[facet]
+    new_projection = search.project(comm, new[0], other)
+    parts = [(x[far], w[far], bary[far], facet[far]), new]
+    order = np.argsort(np.concatenate([part[3] for part in parts]), kind="stable")
+    x, w, bary, facet = (np.concatenate(column)[order] for column in zip(*parts))
+    both = search.Projection(*(np.concatenate([getattr(projection, name)[far], getattr(new_projection, name)])[order]
+                               for name in ("point", "distance", "dofs", "bary", "normal", "vertices")))
+    return x, w, bary, facet.astype(np.int64), both
 
 
-PROBE_STEP = 1e-3  # how far beyond a candidate's edge or vertex (relative) its neighbours are looked for
-
-
-def _probes(own, facets, near):
-    """Points just beyond the edges and vertices of the candidates of the given facets (those whose pieces
-    leave a gap): their closest facets of the other face are the candidates' neighbours, which overlap the
-    facet where the candidates leave it uncovered (a flood over the other face, from one round to the next)."""
-    points, owner = [], []
-    for f in facets:
-        for S in near[f].values():
-            centre = S.mean(axis=0)
-            corners = np.concatenate([S, 0.5 * (S + np.roll(S, -1, axis=0))])  # vertices, edge midpoints
-            points.append(corners + PROBE_STEP * (corners - centre))
-            owner.append(np.full(len(corners), f))
-    if not points:
-        return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
-    return np.concatenate(points), np.concatenate(owner)
-
-
-def _collect(near, facet, vertices):
-    """Add to each facet's candidates the other face's triangles found closest to its points; whether any
-    facet got a new one."""
-    new = False
-    keys = np.round(vertices.reshape(vertices.shape[0], vertices.shape[1] * vertices.shape[2]), 12)
-    for f, key, triangle in zip(facet, map(tuple, keys), vertices):
-        if key not in near[f]:
-            near[f][key] = triangle
-            new = True
-    return new
-
-
-def _onto_plane(S, T, normal):
-    """The vertices of S moved along ``normal`` into the plane of T."""
-    return S - np.outer((S - T[0]) @ normal, normal)
-
-
-def _cross(a, b):
-    """a × b of two 3-vectors (np.cross costs 40 µs a call: this is the inner loop)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-def _inward_normals(T, normal):
-    """For each edge i (T[i] → T[i+1]) of the triangle T, a vector in its plane normal to it, into T."""
-    inward = []
+def _pieces(own, facet, S):
+    """The fans of the polygons S (m, 3, 3), projected onto the plane of own's facet ``facet`` (m,), clipped
+    by that facet (Sutherland–Hodgman, all pairs at once): (triangles (t, 3, 3), the facet of each (t,))."""
+    T, normal = own.vertices[facet], own.normals[facet]
+    polygon = S - _rows_dot(S - T[:, None, 0], normal)[:, :, None] * normal[:, None, :]
+    count = np.full(len(facet), 3)
     for i in range(3):
-        a, b = T[i], T[(i + 1) % 3]
-        n = _cross(normal, b - a)  # T's vertices are not oriented: point it to the third vertex
-        inward.append(n if n @ (T[(i + 2) % 3] - a) >= 0 else -n)
-    return inward
+        a, b, c = T[:, i], T[:, (i + 1) % 3], T[:, (i + 2) % 3]
+        inward = np.cross(normal, b - a)  # T's vertices are not oriented: point it to the third vertex
+        inward[np.einsum("md,md->m", inward, c - a) < 0] *= -1.0
+        polygon, count = _clip_half(polygon, count, a, inward)
+    if polygon.shape[1] < 3:  # (no polygon left with three vertices)
+        return np.zeros((0, 3, 3)), np.zeros(0, dtype=np.int64)
+    rows, first = np.nonzero(np.arange(polygon.shape[1])[None, :] < (count - 2)[:, None])  # fan triangle (row, i)
+    triangles = np.stack([polygon[rows, 0], polygon[rows, first + 1], polygon[rows, first + 2]], axis=1)
+    return triangles, facet[rows]
 
 
-def _clip(polygon, T, inward):
-    """The part of the convex ``polygon`` (in T's plane) inside the triangle T (Sutherland–Hodgman;
-    ``inward``: :func:`_inward_normals`)."""
-    for i in range(3):
-        a = T[i]
-        side = (polygon - a) @ inward[i] if len(polygon) else np.zeros(0)
-        out = []
-        for j in range(len(polygon)):
-            p, q, sp, sq = polygon[j], polygon[(j + 1) % len(polygon)], side[j], side[(j + 1) % len(polygon)]
-            if sp >= 0:
-                out.append(p)
-            if (sp >= 0) != (sq >= 0):
-                out.append(p + (q - p) * (sp / (sp - sq)))
-        polygon = np.array(out)
-    return polygon
+def _clip_half(polygon, count, a, inward):
+    """The convex polygons (m, M, 3) of ``count`` vertices each cut to the side of the planes through ``a``
+    (m, 3) where ``inward`` (m, 3) points: each vertex kept if inside, and the crossing of each edge that
+    crosses, in the order of the vertices (one step of Sutherland–Hodgman)."""
+    m, M, _ = polygon.shape
+    if M == 0:
+        return polygon, count
+    j = np.arange(M)
+    valid = j[None, :] < count[:, None]
+    following = np.where(j[None, :] + 1 < count[:, None], j[None, :] + 1, 0)
+    side = _rows_dot(polygon - a[:, None, :], inward)
+    inside = side >= 0
+    q = np.take_along_axis(polygon, following[:, :, None], axis=1)
+    sq = np.take_along_axis(side, following, axis=1)
+    keep = valid & inside
+    crossing = valid & (inside != (sq >= 0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(crossing, side / np.where(crossing, side - sq, 1.0), 0.0)
+    candidates = np.stack([polygon, polygon + (q - polygon) * t[:, :, None]], axis=2).reshape(m, 2 * M, 3)
+    chosen = np.stack([keep, crossing], axis=2).reshape(m, 2 * M)
+    new_count = chosen.sum(axis=1)
+    width = int(new_count.max(initial=0))
+    out = np.zeros((m, width, 3))
+    rows, slots = np.nonzero(chosen)
+    out[rows, (np.cumsum(chosen, axis=1) - 1)[rows, slots]] = candidates[rows, slots]
+    return out, new_count
 
 
-def _fan(polygon):
-    """Triangles (3, 3) fanning a convex polygon; none for fewer than 3 vertices."""
-    return [np.stack([polygon[0], polygon[i], polygon[i + 1]]) for i in range(1, len(polygon) - 1)]
+def _rows_dot(rows, vector):
+    """(m, M) the dot products of the rows of each (M, 3) matrix of ``rows`` with its ``vector`` (m, 3): a
+    stack of matrix-vector products, as each pair's own ``rows @ vector`` (the same rounding: which
+    vertices a clip keeps hangs on the sign of these, and the fan on which it keeps)."""
+    m, M, _ = rows.shape
+    if M < 2:  # (a single row would be a dot product, rounded otherwise)
+        return _rows_dot(np.concatenate([rows, np.zeros((m, 2 - M, 3))], axis=1), vector)[:, :M]
+    return np.matmul(rows, vector[:, :, None])[:, :, 0]
+
+
+def _areas(triangles):
+    return 0.5 * np.linalg.norm(np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]), axis=1)
+
+
+def _rule_on(own, degree, triangles, area, facet):
+    """The rule of ``degree`` on each triangle (t, 3, 3) lying in own's facet ``facet`` (t,): (x, w, bary in
+    the facet, facet), triangle by triangle."""
+    bary_ref, weights = gauss_rule(3, degree)
+    m = len(weights)
+    x = np.einsum("qk,tkd->tqd", bary_ref, triangles).reshape(-1, 3)
+    w = (area[:, None] * weights[None, :]).ravel()
+    point_facet = np.repeat(facet, m)
+    return x, w, _barycentric(x, own.vertices[point_facet]), point_facet
 
 
 def _barycentric(points, T):
-    """Barycentric coordinates (n, 3) of points in the plane of the triangle T."""
-    e1, e2 = T[1] - T[0], T[2] - T[0]
-    gram = np.array([[e1 @ e1, e1 @ e2], [e1 @ e2, e2 @ e2]])
-    st = np.linalg.solve(gram, np.stack([(points - T[0]) @ e1, (points - T[0]) @ e2]))
-    return np.stack([1 - st[0] - st[1], st[0], st[1]], axis=1)
+    """Barycentric coordinates (n, 3) of points (n, 3) in the plane of the triangles T (n, 3, 3)."""
+    e1, e2, r = T[:, 1] - T[:, 0], T[:, 2] - T[:, 0], points - T[:, 0]
+    g11, g12, g22 = (np.einsum("nd,nd->n", u, v) for u, v in ((e1, e1), (e1, e2), (e2, e2)))
+    r1, r2 = np.einsum("nd,nd->n", r, e1), np.einsum("nd,nd->n", r, e2)
+    det = g11 * g22 - g12 ** 2
+    s, t = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
+    return np.stack([1 - s - t, s, t], axis=1)
