@@ -19,11 +19,13 @@ Tolerances, derived from how the quantities are measured:
   the arcs' slope at the edge) and the vertices' pressures against the cut rule's P (O(h²)): 2e-3 (measured
   1.5e-4).
 - 1 and 2 ranks: the same path's P, Q, a, stick and slip lengths to 1e-8 (the solver's tolerance).
-- xfail: the contact zone keeps its half-width through the shear (β = 0). Measured instead: it narrows by
-  0.5, 2.5 and 5.9 % (a/a1 − 1), on every mesh alike (verification table (3)); with one normal for both
-  half-passes (ν_A − ν_B, normalised) it stays to 1e-4, so the narrowing is the two half-passes measuring the
-  normal jump along different normals (ν_A and ν_B: their sum is (x/R1 + x/R2) e_x on these arcs) while the
-  faces slip.
+- The contact zone keeps its half-width through the shear (β = 0: normal and tangential loads uncoupled) to
+  1e-3 of it. With each half-pass measuring the normal jump along its own face's normal (ν_A, ν_B: their sum
+  is (x/R1 + x/R2) e_x on these arcs) it narrowed by 0.5, 2.5 and 5.9 % as the faces slipped; the pairs now
+  measure it along the mean normal n = (ν_A − ν_B)/|ν_A − ν_B| (nc_dolfinx.pairs.faces.pair_normal).
+- c/a: with the mean normal, measured −0.98, −1.00, −0.59 chords on the shipped mesh (−0.49 … −0.59 after
+  one local refinement; the stick zone's ends are a vertex classification: up to one chord by measurement
+  alone, above), so the tolerance is 1.5 chords.
 """
 import json
 
@@ -51,7 +53,7 @@ def test_stick_zone_is_cattaneo_mindlin(case):
     shear = case["shear"]
     assert [round(q["Q_over_muP"], 1) for q in shear] == [0.3, 0.5, 0.8]  # (the loads the case is built for)
     for q in shear:
-        tolerance = case["chord"] / q["a_hertz"]  # one chord (module docstring)
+        tolerance = 1.5 * case["chord"] / q["a_hertz"]  # (module docstring)
         assert 0 < q["Q"] < case["mu"] * q["P"]
         assert 0 < q["c"] < q["a"]
         assert q["slip"] > 0  # partial slip: neither full stick nor gross sliding
@@ -82,11 +84,9 @@ def test_no_friction_no_stick_zone():
         assert q["Q"] == pytest.approx(1e-3 * q["P"], rel=2e-3)
 
 
-@pytest.mark.xfail(strict=True, reason="the two half-passes measure the normal jump along ν_A and ν_B: the contact "
-                   "narrows by up to 5.9 % as the faces slip (module docstring)")
 def test_contact_keeps_its_half_width_through_the_shear(case):
     for q in case["shear"]:
-        assert q["a"] == pytest.approx(q["a1"], abs=case["chord"])
+        assert q["a"] == pytest.approx(q["a1"], rel=1e-3)
 
 
 def test_ranks_give_the_same_path(case, tmp_path):

@@ -4,9 +4,10 @@ On a facet F of either face, with ν its outward normal and p the pair's pressur
 with the normal jump across the pair, :mod:`nc_dolfinx.pairs.coupling`: on the second face the pressure of
 its own points projected onto the first, i.e. the same pressure carried through Π),
 
-    η_3K² += h_K ‖σ_t(u_h) − σ_t‖²_F,      η_4K² += h_K ‖p + σ_n(u_h)‖²_F
+    η_3K² += h_K ‖(σ(u_h)ν − t)_t‖²_F,      η_4K² += h_K ‖(σ(u_h)ν − t)·ν‖²_F,   t = −p n + σ_t
 
-— the terms of the foundation's Γ_C (σ_t the law's tangential traction: 0 without friction; with
+(n the law's normal, :func:`nc_dolfinx.pairs.faces.pair_normal`; on flat faces n = ν and these are
+‖σ_t(u_h) − σ_t‖ and ‖p + σ_n(u_h)‖) — the terms of the foundation's Γ_C (σ_t the law's tangential traction: 0 without friction; with
 ``pairs.friction`` the law's traction at the face's vertices, P1 between them, :mod:`nc_dolfinx.pairs.friction`,
 as the foundation's law is read on Γ_C), taken with the pair's
 integration points (the facets cut where the other face's vertices project, :mod:`nc_dolfinx.pairs.segments`).
@@ -35,14 +36,14 @@ def pair_terms(u, fields, coupling):
     law = _frictional_traction(u, fields, coupling)
     for rows, where in coupling.by_rows():
         cells = rows.face.cells[rows.facet]
-        traction = np.einsum("nij,nj->ni", sigma[cells], rows.normal)
-        normal_stress = np.einsum("ni,ni->n", traction, rows.normal)
-        tangential = traction - normal_stress[:, None] * rows.normal
-        if law is not None:  # σ_t(u_h) against the law's traction, P1 between the face's vertices
-            at_points = np.einsum("nk,nkd->nd", rows.bary, law[rows.face.local_dofs[rows.facet]])
-            tangential -= at_points - np.einsum("ni,ni->n", at_points, rows.normal)[:, None] * rows.normal
+        # σ(u_h)ν against the contact's traction −p n + σ_t (n the law's normal, σ_t the friction law's)
+        residual = np.einsum("nij,nj->ni", sigma[cells], rows.normal) + pressure[where][:, None] * rows.direction
+        if law is not None:  # (the law's traction P1 between the face's vertices)
+            residual -= np.einsum("nk,nkd->nd", rows.bary, law[rows.face.local_dofs[rows.facet]])
+        normal_part = np.einsum("ni,ni->n", residual, rows.normal)
+        tangential = residual - normal_part[:, None] * rows.normal
         np.add.at(terms[:, 0], cells, rows.measure * np.einsum("ni,ni->n", tangential, tangential))
-        np.add.at(terms[:, 1], cells, rows.measure * (pressure[where] + normal_stress) ** 2)
+        np.add.at(terms[:, 1], cells, rows.measure * normal_part ** 2)
     per_cell.scatter_reverse(versions.SCATTER_ADD)
     return terms[:cell_map.size_local, 0].copy(), terms[:cell_map.size_local, 1].copy()
 

@@ -1,17 +1,18 @@
 """Normal compliance between two deformable bodies: the pairs' part of the residual, Jacobian and energy of (7).
 
 For a pair of faces (Γ_A on one body, Γ_B on the other) and a point x of Γ_A, Π x is the closest point of
-Γ_B in the reference configuration (:mod:`.search`), ν_A the outward normal of Γ_A at x, and
+Γ_B in the reference configuration (:mod:`.search`), n the mean of the outward normals ν_A at x and −ν_B at
+Π x (:func:`.faces.pair_normal`: ν_A itself on flat faces), and
 
-    u_n(x) = (u(x) − u(Π x))·ν_A,     g_0(x) = (Π x − x)·ν_A + offset,      p = c_n (u_n − g_0)_+^{m_n},
+    u_n(x) = (u(x) − u(Π x))·n,     g_0(x) = (Π x − x)·n + offset,      p = c_n (u_n − g_0)_+^{m_n},
 
 the law (4) of the paper with the normal jump across the pair in place of u_n (the foundation's side is the
 other body). The pair's term of the residual of (7) is
 
-    j_AB(u, v) = ∫_Γ_A p (v(x) − v(Π x))·ν_A,
+    j_AB(u, v) = ∫_Γ_A p (v(x) − v(Π x))·n,
 
 discretised at the Gauss points x_q of Γ_A's facets (weights w_q): with the sparse gap operator B,
-(B u)_q = u_n(x_q) (row q: λ_i ν_A at the facet's vertices, −λ'_j ν_A at those of the facet of Γ_B that
+(B u)_q = u_n(x_q) (row q: λ_i n at the facet's vertices, −λ'_j n at those of the facet of Γ_B that
 holds Π x_q), the term is Bᵀ W p(B u − g), its Jacobian Bᵀ W p'(B u − g) B and its energy
 Σ_q w_q c_n/(m_n + 1) (B u − g)_+^{m_n + 1}: the solver's Newton steps, line search and preconditioner see
 one more convex, C¹ energy term and one more SPD Jacobian term, as for the foundation.
@@ -66,6 +67,7 @@ class Rows:
     w: np.ndarray           # (n,) the quadrature weights (times ½ with two passes; 0 where not taking part)
     facet: np.ndarray       # (n,) the point's facet in ``face``
     normal: np.ndarray      # (n, gdim) ν of the face at the point
+    direction: np.ndarray   # (n, gdim) n, the law's normal (:func:`.faces.pair_normal`)
     gap: np.ndarray         # (n,) g_0
     c_n: np.ndarray         # (n,)
     m_n: float
@@ -207,7 +209,8 @@ def _pass(comm, pair, side, own, other, fields):
                                          partial(segments.points_and_projection, comm, own, other, pair.degree,
                                                  pair.integration))
     normal = own.normals[facet]
-    gap = np.einsum("ij,ij->i", projection.point - x, normal) + pair.offset
+    direction = faces.pair_normal(normal, projection.normal)
+    gap = np.einsum("ij,ij->i", projection.point - x, direction) + pair.offset
     _check_facing(comm, pair, side, normal, projection)
     _check_overlap(comm, pair, side, x, gap, own.sizes[facet])
     weight = w * (0.5 if pair.passes == "two" else 1.0 if side == 0 else 0.0)
@@ -224,7 +227,7 @@ def _pass(comm, pair, side, own, other, fields):
         if len(x) else np.zeros(0)
     if not np.all(np.isfinite(c_n)) or np.any(c_n < 0):
         raise InputError(f"pairs[{pair.number}].c_n must be finite and >= 0 on '{pair.names[side]}'")
-    return Rows(pair, side, own, x, weight, facet, normal, gap, c_n, pair.m_n, projection, w, bary)
+    return Rows(pair, side, own, x, weight, facet, normal, direction, gap, c_n, pair.m_n, projection, w, bary)
 
 
 def _check_facing(comm, pair, side, normal, projection):
@@ -253,13 +256,13 @@ def _first(a, b, _=None):
 
 
 def _gap_operator(space, rows_list):
-    """B (points × dofs, :func:`.operators.point_operator`): row q reads (u(x_q) − u(Π x_q))·ν_A."""
+    """B (points × dofs, :func:`.operators.point_operator`): row q reads (u(x_q) − u(Π x_q))·n."""
     gdim = space.dofmap.index_map_bs
     k = gdim  # (the vertices of a facet)
     def joined(get, shape):
         arrays = [get(rows) for rows in rows_list]
         return np.concatenate(arrays) if arrays else np.zeros(shape)
-    normal = joined(lambda r: r.normal, (0, gdim))
+    normal = joined(lambda r: r.direction, (0, gdim))
     own = (joined(lambda r: r.face.dofs[r.facet], (0, k)).astype(np.int64), joined(lambda r: r.bary, (0, k)))
     other = (joined(lambda r: r.projection.dofs, (0, k)).astype(np.int64), -joined(lambda r: r.projection.bary, (0, k)))
     return operators.point_operator(space, normal[:, None, :], [own, other])

@@ -89,3 +89,19 @@ def quadrature_points(face_, degree):
     x = np.einsum("qk,nkd->nqd", bary, face_.vertices).reshape(-1, face_.vertices.shape[2])
     w = (face_.sizes[:, None] * weights[None, :]).ravel()
     return x, w, np.tile(bary, (face_.count, 1)), np.repeat(np.arange(face_.count), m)
+
+
+def pair_normal(own, other):
+    """The normal n along which a pair's law measures the jump at a point: the mean of the two faces' outward
+    normals there, n = (ν_A − ν_B)/|ν_A − ν_B| (ν_B the other face's at the closest point), where they face
+    each other (ν_A·ν_B < 0), else ν_A. Why not ν_A: on curved faces ν_A and −ν_B differ by the angle
+    between the faces' slopes, and a tangential slip of the faces, (u_A − u_B)·ν_A ≠ (u_A − u_B)·(−ν_B),
+    then entered the two half-passes' normal jumps with opposite signs; between two identical cylinders
+    sheared at a fixed normal load (Dundurs' β = 0: the contact keeps its width) the contact narrowed by
+    up to 5.9 % with the faces' own normals, by less than 1e-4 with n (verification/cattaneo_two_bodies.py).
+    On flat faces n = ν_A = −ν_B: nothing changes there. (The averaged normal of mortar methods: Puso &
+    Laursen, CMAME 193, 2004.)"""
+    difference = own - other
+    size = np.linalg.norm(difference, axis=1)
+    facing = np.einsum("ij,ij->i", own, other) < 0
+    return np.where(facing[:, None], difference / np.where(size > 0, size, 1.0)[:, None], own)

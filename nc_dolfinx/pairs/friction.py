@@ -40,7 +40,7 @@ from .. import dolfinx_versions as versions
 from ..errors import InputError
 from ..physics.friction import SLIP_STIFFENING, on_contact
 from ..problem.expressions import values_at
-from . import operators, search
+from . import faces, operators, search
 from .cache import kept
 
 
@@ -235,8 +235,9 @@ class LawState:
 
 def _vertex_rows(comm, space, pair, side, own, other):
     """The rows of ``own``'s owned vertices (:func:`_vertices_and_projection`) with the pair's law."""
-    local, x, measure, normal, projection = kept(space.mesh, ("vertices", pair.ids, side), partial(
+    local, x, measure, own_normal, projection = kept(space.mesh, ("vertices", pair.ids, side), partial(
         _vertices_and_projection, comm, space, own, other))
+    normal = faces.pair_normal(own_normal, projection.normal)
     gap = np.einsum("ij,ij->i", projection.point - x, normal) + pair.offset
     weight = measure * (0.5 if pair.passes == "two" else 1.0 if side == 0 else 0.0)
     if pair.search_distance is not None:

@@ -28,7 +28,7 @@ def pair_quantities(u, fields):
             if rows.pair is not pair:
                 continue
             p = pressure[where]
-            force += (-1.0 if rows.side == 0 else 1.0) * (rows.w * p) @ rows.normal
+            force += (-1.0 if rows.side == 0 else 1.0) * (rows.w * p) @ rows.direction
             if rows.side == 0:
                 measure += float(rows.measure[p > 0].sum())
                 resultant += float(rows.measure @ p)
