@@ -221,15 +221,18 @@ def _rows_dot(rows, vector):
 
 
 def _areas(triangles):
-    return 0.5 * np.linalg.norm(np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]), axis=1)
+    """The areas of the triangles (t, 3, 3), rounded as the norm of each one's cross product alone."""
+    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    return 0.5 * np.sqrt(np.matmul(cross[:, None, :], cross[:, :, None])[:, 0, 0])
 
 
 def _rule_on(own, degree, triangles, area, facet):
     """The rule of ``degree`` on each triangle (t, 3, 3) lying in own's facet ``facet`` (t,): (x, w, bary in
-    the facet, facet), triangle by triangle."""
+    the facet, facet), triangle by triangle. (Rounded as triangle by triangle too: a point on an edge of the
+    other face has two closest facets, and its last bits choose which.)"""
     bary_ref, weights = gauss_rule(3, degree)
     m = len(weights)
-    x = np.einsum("qk,tkd->tqd", bary_ref, triangles).reshape(-1, 3)
+    x = np.matmul(bary_ref, triangles).reshape(-1, 3)  # (each triangle's bary_ref @ t, rounded as alone)
     w = (area[:, None] * weights[None, :]).ravel()
     point_facet = np.repeat(facet, m)
     return x, w, _barycentric(x, own.vertices[point_facet]), point_facet
