@@ -25,11 +25,12 @@ the Hertz half-width a = 2 sqrt(P R/(π E*)) (R = 1/2, E* = E/(2(1 − ν²))) i
     Cattaneo–Mindlin state does not depend on the path.
 (5) ``half-width``: the computed contact's half-width under the shear against step 1's, a/a1 − 1 (Cattaneo–Mindlin
     keeps it: β = 0), and c/a_H, at dn, dn/4 and dn/16 (dt scaled alike: a/R from 0.1 to 0.02).
-(6) ``frictionless slide``: the path with μ = 0 throughout: the upper body slides by about dt and the contact
-    should stay where it is (its centre moves by dt/2); where each face's pressure lies, the contact's width, its
-    peak and the force's x-component (with ``--quick`` one dt). With each half-pass measuring the normal jump
-    along its own face's normal, the two faces' pressures moved apart by 24 dt and the contact narrowed (by
-    6.8 % at dt = 5e-4, 0.65 chords; and by up to 5.9 % in the case's shear), docs: guide/two_bodies.md.
+(6) ``frictionless slide``: the path with μ = 0 throughout: the upper body slides by about dt, a small slide
+    that should leave the contact's width and pressure as they were; where each face's pressure lies, the
+    contact's width, its peak and the force's x-component (with ``--quick`` one dt). With each half-pass
+    measuring the normal jump along its own face's normal (before 26e3871), the two faces' pressures moved
+    apart by 24 dt and the contact narrowed (by 6.8 % at dt = 5e-4, 0.65 chords; by up to 5.9 % in the case's
+    shear): docs, guide/two_bodies.md.
 
 Quantities (history rows of nc.adapt, per pair 1): P = pair1_force[1] (the normal force per unit length on
 the upper body), Q = |pair1_friction_force[0]| (the tangential force between the bodies), Q_n = |pair1_force[0]|
