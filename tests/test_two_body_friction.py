@@ -1,17 +1,21 @@
 """Cattaneo–Mindlin between two identical elastic cylinders ([[pairs]] friction, issue 47): the built-in case
 cattaneo_cylinders as verification/cattaneo_two_bodies.py measures it (docs: guide/two_bodies.md). Two half-discs
 of one material (Dundurs' β = 0) pressed without friction, μ = 0.3 switched on, then sheared in three
-increments to Q/(μP) ≈ 0.27, 0.53, 0.78.
+increments to Q/(μP) ≈ 0.28, 0.54, 0.80.
 
 Tolerances, derived from how the quantities are measured:
 - c/a_H against (1 − Q/(μP))^{1/2}, with c = pair1_stick_length/2 and a_H Hertz's half-width at the computed P
   (Cattaneo–Mindlin's a): one chord of the upper face at the contact, h/a_H (0.015 on the shipped mesh; h is
-  measured on the mesh). The law classifies stick and slip at the faces' vertices and the stick length is
-  the lumped measure of the stuck ones, so each end of the stick zone lies within h/2 of the last stuck
-  vertex by the classification alone; the discrete slip moves the edge by a fraction of a chord more
-  (measured: at most 0.58 chords on the shipped mesh, 0.67 and 0.36 after one and two local refinements,
-  verification table (3)). The rest is far below: the penalty's tail widens the computed zone {p > 0} (not
-  used here) by 0.6 %; ε_r's pre-slip ε = ε_r (u_n − g_0)_+ ≤ 3e-8 is 4e-5 of a chord.
+  measured on the mesh), plus the penalty's measured effect on the contact, |a1/a_H − 1| (a1 the computed
+  frictionless half-width of step 1: 0.005 here). The law classifies stick and slip at the faces' vertices
+  and the stick length is the lumped measure of the stuck ones, so each end of the stick zone lies within
+  h/2 of the last stuck vertex by the classification alone, and the discrete slip moves the edge by a
+  fraction of a chord more; what does not shrink with h (−0.006 at Q/(μP) = 0.8 after two local refinements,
+  1.7 of their chords) is of the penalty's size (and of the finite bodies', a/R_i = 0.05: not separated).
+  Measured (verification table (3), on 6120897): −0.015, −0.015, −0.008 on the shipped mesh (1.0, 1.0, 0.5
+  chords) against a tolerance of 0.020; within 0.0044, 0.0062, 0.0039 against 0.014, 0.011, 0.018 after one
+  and two local refinements and one uniform one. ε_r's pre-slip ε = ε_r (u_n − g_0)_+ ≤ 3e-8 is 4e-5 of a
+  chord.
 - Q < μP at every load (partial slip) and c strictly decreasing as Q grows: these are exact statements.
 - μ = 0 on the same path: no friction force and no stick zone, exactly (the bound μ p is 0: no vertex is in
   the law's contact). μ = 1e-3: the same shear is far past the limit, every vertex in contact slips (no stick
@@ -23,9 +27,6 @@ Tolerances, derived from how the quantities are measured:
   1e-3 of it. With each half-pass measuring the normal jump along its own face's normal (ν_A, ν_B: their sum
   is (x/R1 + x/R2) e_x on these arcs) it narrowed by 0.5, 2.5 and 5.9 % as the faces slipped; the pairs now
   measure it along the mean normal n = (ν_A − ν_B)/|ν_A − ν_B| (nc_dolfinx.pairs.faces.pair_normal).
-- c/a: with the mean normal, measured −0.98, −1.00, −0.59 chords on the shipped mesh (−0.49 … −0.59 after
-  one local refinement; the stick zone's ends are a vertex classification: up to one chord by measurement
-  alone, above), so the tolerance is 1.5 chords.
 """
 import json
 
@@ -53,7 +54,7 @@ def test_stick_zone_is_cattaneo_mindlin(case):
     shear = case["shear"]
     assert [round(q["Q_over_muP"], 1) for q in shear] == [0.3, 0.5, 0.8]  # (the loads the case is built for)
     for q in shear:
-        tolerance = 1.5 * case["chord"] / q["a_hertz"]  # (module docstring)
+        tolerance = (case["chord"] + abs(case["press"]["a"] - q["a_hertz"])) / q["a_hertz"]  # (module docstring)
         assert 0 < q["Q"] < case["mu"] * q["P"]
         assert 0 < q["c"] < q["a"]
         assert q["slip"] > 0  # partial slip: neither full stick nor gross sliding
@@ -66,7 +67,7 @@ def test_stick_zone_is_cattaneo_mindlin(case):
 
 def test_frictionless_normal_load_is_hertz(case):
     """Step 1 (μ = 0): no friction force, no stick zone, and the computed half-width at Hertz's within one chord
-    plus the penalty's tail (measured +0.64 %; two_cylinders: 1 %)."""
+    plus the penalty's tail (measured +0.49 %; two_cylinders: 1 %)."""
     press = case["press"]
     assert press["Q"] == 0.0 and press["stick"] == 0.0
     assert press["a"] == pytest.approx(press["a_hertz"], abs=case["chord"] + 0.01 * press["a_hertz"])
