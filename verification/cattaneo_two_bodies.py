@@ -279,18 +279,25 @@ def figures(out, case, levels):
     ax.set_ylabel("c/a_H (a_H: Hertz's half-width at the computed P)")
     _finish(plt, fig, ax, "Q/(μP)", "the stick zone", out / "stick_zone.png")
     fig, ax = plt.subplots(figsize=(5.5, 4))
-    dofs = [run["dofs"] for _, run in levels]
-    ax.loglog(dofs, [max(abs(q["difference"]) for q in run["shear"]) for _, run in levels], "o-",
-              label="max |c/a_H − (1 − Q/μP)^½|")
-    ax.loglog(dofs, [run["chord"] / run["press"]["a_hertz"] for _, run in levels], ":", label="h/a_H (one chord)")
-    ax.loglog(dofs, [abs(run["press"]["a_error"]) for _, run in levels], "s--", label="|a/a_Hertz − 1| (step 1)")
-    _finish(plt, fig, ax, "dofs", "refinement (local, then uniform once)", out / "convergence.png")
+    for kind, style in (("local", "-"), ("uniform", "none")):  # the shipped mesh starts the local line
+        runs = [run for label, run in levels if (label.startswith("uniform")) == (kind == "uniform")]
+        if not runs:
+            continue
+        dofs = [run["dofs"] for run in runs]
+        local = kind == "local"
+        ax.loglog(dofs, [max(abs(q["difference"]) for q in run["shear"]) for run in runs], marker="o", ls=style,
+                  color="C0", label="max |c/a_H − (1 − Q/μP)^½|" if local else "uniform x1 (markers alone)")
+        ax.loglog(dofs, [run["chord"] / run["press"]["a_hertz"] for run in runs], marker=".", ls=style, color="C1",
+                  label="h/a_H (one chord)" if local else None)
+        ax.loglog(dofs, [abs(run["press"]["a_error"]) for run in runs], marker="s", ls=style, color="C2",
+                  label="|a1/a_Hertz − 1| (step 1)" if local else None)
+    _finish(plt, fig, ax, "dofs", "refinement", out / "convergence.png")
 
 
 def _finish(plt, fig, ax, xlabel, title, path):
     ax.set_xlabel(xlabel)
     ax.set_title(f"{CASE}: {title}")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
