@@ -164,6 +164,24 @@ def test_friction_path_with_refinement_is_independent_of_ranks(blocks, tmp_path)
     assert "stick_slip\"" not in written.replace("pair_stick_slip\"", "")  # (Γ_C has no friction here)
 
 
+def test_3d_friction_path_is_independent_of_ranks(blocks3d, tmp_path):
+    """The 3D blocks pressed and sheared (no refinement): 1 and 2 ranks give the same rows to 1e-8."""
+    path = tmp_path / "sheared3d.toml"
+    path.write_text(_toml(sheared_blocks(blocks3d, 0.01, dim=3)))
+    rows = {}
+    for n in (1, 2):
+        out = tmp_path / f"out{n}"
+        result = run_cli([path, "--out", out], nprocs=n)
+        assert result.returncode == 0, result.stderr[-2000:]
+        rows[n] = json.loads((out / "history.json").read_text())
+    assert len(rows[2]) == len(rows[1]) == 3
+    for a, b in zip(rows[1], rows[2]):
+        for name in ("pair1_friction_force", "pair1_force", "pair1_stick_area", "pair1_slip_area"):
+            assert np.allclose(a[name], b[name], rtol=1e-8, atol=1e-12), (name, a[name], b[name])
+    last = rows[1][-1]
+    assert last["pair1_friction_force"][0] < 0 and last["pair1_stick_area"] > 0 and last["pair1_slip_area"] > 0
+
+
 def test_negative_mu_is_refused_naming_the_key(blocks, tmp_path):
     raw = sheared_blocks(blocks, 0.01, mu=-0.1)
     path = tmp_path / "bad.toml"
