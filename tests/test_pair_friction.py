@@ -156,8 +156,9 @@ def test_friction_path_with_refinement_is_independent_of_ranks(blocks, tmp_path)
     for n in (2, 3):
         assert len(rows[n]) == len(rows[1])
         for a, b in zip(rows[1], rows[n]):
+            scale = np.abs(a["pair1_force"]).max()  # (the solver's tolerance is relative to the forces' size)
             for name in names:
-                assert np.allclose(a[name], b[name], rtol=1e-8, atol=1e-12), (n, name, a[name], b[name])
+                assert np.allclose(a[name], b[name], rtol=1e-8, atol=1e-8 * scale), (n, name, a[name], b[name])
     assert rows[1][-1]["pair1_friction_force"][0] < 0
     written = (tmp_path / "out2" / "solution.xdmf").read_text()
     assert "pair_traction" in written and "pair_stick_slip" in written
@@ -176,7 +177,10 @@ def test_3d_friction_path_is_independent_of_ranks(blocks3d, tmp_path):
         rows[n] = json.loads((out / "history.json").read_text())
     assert len(rows[2]) == len(rows[1]) == 3
     for a, b in zip(rows[1], rows[2]):
-        for name in ("pair1_friction_force", "pair1_force", "pair1_stick_area", "pair1_slip_area"):
+        scale = np.abs(a["pair1_force"]).max()  # (the solver's tolerance is relative to the forces' size)
+        for name in ("pair1_friction_force", "pair1_force"):
+            assert np.allclose(a[name], b[name], rtol=1e-8, atol=1e-8 * scale), (name, a[name], b[name])
+        for name in ("pair1_stick_area", "pair1_slip_area"):
             assert np.allclose(a[name], b[name], rtol=1e-8, atol=1e-12), (name, a[name], b[name])
     last = rows[1][-1]
     assert last["pair1_friction_force"][0] < 0 and last["pair1_stick_area"] > 0 and last["pair1_slip_area"] > 0
