@@ -27,6 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import nc_dolfinx as nc  # noqa: E402
+from common import refined_around  # noqa: E402  (verification/common.py)
 
 CASE = "cattaneo"
 
@@ -57,23 +58,8 @@ def case_problem(mu1=0.0, increments1=1, increments2=None, eps_r=None, mu2=None,
 def refined_domain(problem, uniform=0, local=0, comm=MPI.COMM_WORLD, box=0.12):
     """The case's mesh refined ``uniform`` times everywhere, then ``local`` times in the cells whose
     midpoints lie in |x| < box, y < box/4 (around the contact zone |x| < 0.083)."""
-    domain = nc.build_domain(problem, comm)
-    nc.bind(problem, domain)  # (resolves the case's [mesh.shapes] on level 0: refinement puts new vertices on the arc)
-    for _ in range(uniform):
-        domain = nc.refine(domain)
-    for _ in range(local):
-        msh = domain.mesh
-        tdim = msh.topology.dim
-        n = msh.topology.index_map(tdim).size_local
-        mids = _midpoints(msh, n)
-        cells = np.flatnonzero((np.abs(mids[:, 0]) < box) & (mids[:, 1] < box / 4)).astype(np.int32)
-        domain = nc.refine(domain, cells)
-    return domain
-
-
-def _midpoints(msh, n):
-    from dolfinx.mesh import compute_midpoints
-    return compute_midpoints(msh, msh.topology.dim, np.arange(n, dtype=np.int32))
+    return refined_around(problem, lambda mids: (np.abs(mids[:, 0]) < box) & (mids[:, 1] < box / 4),
+                          uniform, local, comm)
 
 
 def measure(problem, domain=None):

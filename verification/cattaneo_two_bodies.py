@@ -55,6 +55,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "verification"))
 
 import nc_dolfinx as nc  # noqa: E402
+from common import refined_around  # noqa: E402  (verification/common.py)
 
 CASE = "cattaneo_cylinders"
 COMM = MPI.COMM_WORLD
@@ -154,19 +155,8 @@ def case_problem(increments=None, dt=None, mu=None, eps_r=None, dn=None):
 def refined_domain(problem, uniform=0, local=0, comm=COMM):
     """The case's mesh refined ``uniform`` times everywhere, then ``local`` times in the cells whose midpoints
     lie in |x| < BOX, |y| < BOX/4 (both bodies around the contact zone)."""
-    domain = nc.build_domain(problem, comm)
-    nc.bind(problem, domain)  # (resolves [mesh.shapes] on level 0: new vertices on the arcs)
-    for _ in range(uniform):
-        domain = nc.refine(domain)
-    for _ in range(local):
-        from dolfinx.mesh import compute_midpoints
-        msh = domain.mesh
-        tdim = msh.topology.dim
-        n = msh.topology.index_map(tdim).size_local
-        mids = compute_midpoints(msh, tdim, np.arange(n, dtype=np.int32))
-        cells = np.flatnonzero((np.abs(mids[:, 0]) < BOX) & (np.abs(mids[:, 1]) < BOX / 4)).astype(np.int32)
-        domain = nc.refine(domain, cells)
-    return domain
+    return refined_around(problem, lambda mids: (np.abs(mids[:, 0]) < BOX) & (np.abs(mids[:, 1]) < BOX / 4),
+                          uniform, local, comm)
 
 
 def chord(domain, group="upper_contact", half_width=0.06):

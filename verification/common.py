@@ -94,3 +94,24 @@ def provenance(script, argv, ranks=1, folder="verification"):
             f"- machine: {platform.node()}, {platform.machine()}, {os.cpu_count()} cores, Python "
             f"{platform.python_version()}, DOLFINx {dolfinx.__version__}, {ranks} rank(s)",
             f"- command: PYTHONPATH=. /usr/bin/python3 {folder}/{script} {' '.join(argv)}".rstrip()]
+
+
+def refined_around(problem, inside, uniform=0, local=0, comm=None):
+    """The problem's level-0 mesh (its [mesh.shapes] resolved, so that refinement puts new boundary vertices on
+    them) refined ``uniform`` times everywhere, then ``local`` times in the owned cells whose midpoints
+    satisfy ``inside(midpoints)`` (an (n, 3) array -> (n,) booleans). Public API only."""
+    import numpy as np
+    from mpi4py import MPI
+    from dolfinx.mesh import compute_midpoints
+    import nc_dolfinx as nc
+    domain = nc.build_domain(problem, comm or MPI.COMM_WORLD)
+    nc.bind(problem, domain)
+    for _ in range(uniform):
+        domain = nc.refine(domain)
+    for _ in range(local):
+        msh = domain.mesh
+        tdim = msh.topology.dim
+        owned = np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32)
+        mids = compute_midpoints(msh, tdim, owned)
+        domain = nc.refine(domain, np.flatnonzero(inside(mids)).astype(np.int32))
+    return domain

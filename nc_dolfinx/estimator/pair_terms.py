@@ -50,14 +50,10 @@ def pair_terms(u, fields, coupling):
 
 def _frictional_traction(u, fields, coupling):
     """With friction between the faces: the law's traction σ_t at every local vertex (n_vertices, gdim),
-    0 off the frictional faces (:meth:`~nc_dolfinx.pairs.friction.PairFriction.traction`); else None."""
+    0 off the frictional faces (:meth:`~nc_dolfinx.pairs.friction.PairFriction.write_traction`); else None."""
     if coupling.friction is None:
         return None
-    traction = fem.Function(u.function_space)
-    local, values = coupling.friction.traction()
-    traction.x.array.reshape(-1, fields.dim)[local] = values
-    traction.x.scatter_forward()
-    return traction.x.array.reshape(-1, fields.dim)
+    return coupling.friction.write_traction(fem.Function(u.function_space)).x.array.reshape(-1, fields.dim)
 
 
 def _cellwise_stress(u, fields):

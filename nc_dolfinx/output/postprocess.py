@@ -87,12 +87,9 @@ def _pair_friction_fields(u, coupling):
     (0 out of contact, 1 stick, 2 slip, as the foundation's ``stick_slip``)."""
     if coupling.friction is None:
         return []
-    msh, gdim = u.function_space.mesh, u.function_space.mesh.geometry.dim
-    traction = fem.Function(u.function_space, name="pair_traction")
-    state = fem.Function(versions.p1_space(msh), name="pair_stick_slip")
-    for rows, where, active, sticking, values in coupling.friction.vertex_states():
-        traction.x.array.reshape(-1, gdim)[rows.local] = values
+    traction = coupling.friction.write_traction(fem.Function(u.function_space, name="pair_traction"))
+    state = fem.Function(versions.p1_space(u.function_space.mesh), name="pair_stick_slip")
+    for rows, _, active, sticking, _ in coupling.friction.vertex_states():
         state.x.array[rows.local] = active * (2.0 - sticking)
-    for fn in (traction, state):
-        fn.x.scatter_forward()
+    state.x.scatter_forward()
     return [traction, state]

@@ -81,7 +81,7 @@ class PairCoupling:
     mesh). ``u``: the displacement Function the solver iterates on; reads its current values."""
 
     def __init__(self, u, fields):
-        self.u, self.fields = u, fields
+        self._u, self.fields = u, fields  # (the setter also tells self.friction, made below)
         comm = u.function_space.mesh.comm
         self.rows, frictional = [], []
         for pair in fields.pairs:
@@ -109,7 +109,7 @@ class PairCoupling:
     @u.setter
     def u(self, u):
         self._u = u
-        if getattr(self, "friction", None) is not None:
+        if self.friction is not None:
             self.friction.u = u
 
     # --- the solver's protocol: widen K's sparsity, add to the residual and the Jacobian, the energy ----

@@ -1,8 +1,9 @@
 """Coulomb friction between the faces of a pair: the regularised law of the foundation
 (:mod:`nc_dolfinx.physics.friction`) with the jump across the pair in place of the body's displacement.
 
-At a vertex x of a pair's face Γ_A (weight m_x = ∫_Γ_A φ_x, normal N the normalised ∫ ν φ_x as on Γ_C),
-with Π x its closest point on the other face Γ_B (:mod:`.search`):
+At a vertex x of a pair's face Γ_A (weight m_x = ∫_Γ_A φ_x), with Π x its closest point on the other face Γ_B
+(:mod:`.search`) and N the mean of Γ_A's vertex normal (the normalised ∫ ν φ_x, as on Γ_C) and −ν_B at Π x
+(:func:`.faces.pair_normal`, as the pressure's rows):
 
     pressure      p  = c_n (u_n − g_0)_+^{m_n},   u_n = (u(x) − u(Π x))·N,   g_0 = (Π x − x)·N + offset,
     slip          Δu_t = (I − N Nᵀ)((u − u_prev)(x) − (u − u_prev)(Π x)),
@@ -53,7 +54,7 @@ class VertexRows:
     x: np.ndarray          # (n, gdim)
     measure: np.ndarray    # (n,) m_x = ∫_face φ_x
     w: np.ndarray          # (n,) the law's weight (m_x, ½ of it with two passes, 0 where not taking part)
-    normal: np.ndarray     # (n, gdim) N
+    normal: np.ndarray     # (n, gdim) N (:func:`.faces.pair_normal` of the vertex normal and −ν_B)
     gap: np.ndarray        # (n,) g_0 along N
     mu_c_n: np.ndarray     # (n,) μ c_n
     m_n: float
@@ -143,10 +144,13 @@ class PairFriction:
 
     # --- the law's state, the memory, the output ------------------------------------------------------
 
-    def traction(self):
-        """(local dof blocks, σ_t (n, gdim)) at this rank's vertices of the frictional faces, the bound of u
-        itself: the law's traction at the end of an increment (the memory's next value)."""
-        return self.local, self._state(self.u).traction
+    def write_traction(self, function):
+        """σ_t of the law, the bound of u itself (the traction at the end of an increment: the memory's next
+        value), written into the P1 vector ``function`` at the frictional faces' vertices (ghosts updated;
+        its other values left as they are). Returns ``function``."""
+        function.x.array.reshape(-1, self.gdim)[self.local] = self._state(self.u).traction
+        function.x.scatter_forward()
+        return function
 
     def vertex_states(self):
         """(rows, slice, in contact, sticking, σ_t) of each face's vertices, the bound of u itself."""

@@ -64,9 +64,7 @@ def traction_at(u, fields):
     traction = friction.at_vertices(friction.tangential_traction(u, depth, law), law)
     pairs = fields.pair_coupling(u).friction if fields.pairs else None
     if pairs is not None:  # (the faces of frictional [[pairs]]: their law's traction at their vertices)
-        local, values = pairs.traction()
-        traction.x.array.reshape(-1, fields.dim)[local] = values
-        traction.x.scatter_forward()
+        pairs.write_traction(traction)
     return traction.x.array.copy()
 
 
